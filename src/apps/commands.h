@@ -1,0 +1,19 @@
+// Subcommands of the `penumbra` executable. Each registers its options on the
+// CLI11 app and returns the function that runs it (exit status).
+#pragma once
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+namespace pn {
+
+struct Command {
+  CLI::App* sub;
+  std::function<int()> run;
+};
+
+Command add_render_command(CLI::App& app);
+Command add_scenes_command(CLI::App& app);
+
+}  // namespace pn

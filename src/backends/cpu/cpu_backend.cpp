@@ -1,0 +1,253 @@
+// CPU backend. Embree answers the integrator's two questions (closest hit, any
+// hit); spheres are Embree user geometry intersected by core/geometry.h so that
+// CPU and GPU compute the same hits. Work is split into 16x16 tiles taken by a
+// pool of threads; every pixel sample has its own RNG stream, so the image does
+// not depend on the number of threads or on the order tiles are taken.
+#include "backends/cpu/cpu_backend.h"
+
+#include <algorithm>
+#include <atomic>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include <embree3/rtcore.h>
+
+#include "core/geometry.h"
+#include "core/integrator.h"
+
+namespace pn {
+namespace {
+
+struct GeomInfo {
+  bool is_sphere_set = false;
+  const TriangleMesh* mesh = nullptr;  // triangles
+  uint32_t material = 0;
+  int32_t light = -1;
+};
+
+// --- Sphere user geometry ------------------------------------------------------
+
+void sphere_bounds(const RTCBoundsFunctionArguments* args) {
+  const auto* spheres = static_cast<const std::vector<Sphere>*>(args->geometryUserPtr);
+  const Sphere& s = (*spheres)[args->primID];
+  // Pad by a relative epsilon: the intersection may report t slightly outside.
+  float r = s.radius * 1.0001f;
+  args->bounds_o->lower_x = s.center.x - r;
+  args->bounds_o->lower_y = s.center.y - r;
+  args->bounds_o->lower_z = s.center.z - r;
+  args->bounds_o->upper_x = s.center.x + r;
+  args->bounds_o->upper_y = s.center.y + r;
+  args->bounds_o->upper_z = s.center.z + r;
+}
+
+void sphere_intersect(const RTCIntersectFunctionNArguments* args) {
+  if (!args->valid[0]) return;
+  const auto* spheres = static_cast<const std::vector<Sphere>*>(args->geometryUserPtr);
+  const Sphere& s = (*spheres)[args->primID];
+  RTCRayHit* rh = reinterpret_cast<RTCRayHit*>(args->rayhit);  // N == 1: rtcIntersect1 only
+  Ray ray(Vec3(rh->ray.org_x, rh->ray.org_y, rh->ray.org_z), Vec3(rh->ray.dir_x, rh->ray.dir_y, rh->ray.dir_z));
+  float t;
+  if (!intersect_sphere(ray, s.center, s.radius, rh->ray.tnear, rh->ray.tfar, &t)) return;
+  rh->ray.tfar = t;
+  rh->hit.geomID = args->geomID;
+  rh->hit.primID = args->primID;
+  rh->hit.instID[0] = args->context->instID[0];
+  rh->hit.u = rh->hit.v = 0.f;
+  rh->hit.Ng_x = rh->hit.Ng_y = rh->hit.Ng_z = 0.f;  // recomputed by the integrator side
+}
+
+void sphere_occluded(const RTCOccludedFunctionNArguments* args) {
+  if (!args->valid[0]) return;
+  const auto* spheres = static_cast<const std::vector<Sphere>*>(args->geometryUserPtr);
+  const Sphere& s = (*spheres)[args->primID];
+  RTCRay* r = reinterpret_cast<RTCRay*>(args->ray);
+  Ray ray(Vec3(r->org_x, r->org_y, r->org_z), Vec3(r->dir_x, r->dir_y, r->dir_z));
+  float t;
+  if (intersect_sphere(ray, s.center, s.radius, r->tnear, r->tfar, &t)) r->tfar = -kInf;  // Embree: occluded
+}
+
+class CpuBackend final : public Backend {
+ public:
+  CpuBackend(const Scene& scene, int threads) : scene_(scene), view_(scene.view()) {
+    threads_ = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    device_ = rtcNewDevice("threads=1");  // Embree's own threads only build; we trace
+    if (!device_) throw std::runtime_error("cannot create Embree device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+    rtc_ = rtcNewScene(device_);
+    rtcSetSceneBuildQuality(rtc_, RTC_BUILD_QUALITY_HIGH);
+    for (const TriangleMesh& m : scene.meshes) {
+      RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                            3 * sizeof(float), m.positions.size()));
+      for (size_t i = 0; i < m.positions.size(); ++i) {
+        v[3 * i] = m.positions[i].x;
+        v[3 * i + 1] = m.positions[i].y;
+        v[3 * i + 2] = m.positions[i].z;
+      }
+      auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                 3 * sizeof(uint32_t), m.indices.size()));
+      for (size_t i = 0; i < m.indices.size(); ++i)
+        for (int k = 0; k < 3; ++k) idx[3 * i + k] = m.indices[i][k];
+      rtcCommitGeometry(g);
+      unsigned id = rtcAttachGeometry(rtc_, g);
+      rtcReleaseGeometry(g);
+      geoms_.resize(id + 1);
+      geoms_[id] = GeomInfo{false, &m, m.material, m.light};
+    }
+    if (!scene.spheres.empty()) {
+      RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
+      rtcSetGeometryUserPrimitiveCount(g, unsigned(scene.spheres.size()));
+      rtcSetGeometryUserData(g, const_cast<std::vector<Sphere>*>(&scene.spheres));
+      rtcSetGeometryBoundsFunction(g, sphere_bounds, nullptr);
+      rtcSetGeometryIntersectFunction(g, sphere_intersect);
+      rtcSetGeometryOccludedFunction(g, sphere_occluded);
+      rtcCommitGeometry(g);
+      sphere_geom_ = rtcAttachGeometry(rtc_, g);
+      rtcReleaseGeometry(g);
+      geoms_.resize(sphere_geom_ + 1);
+      geoms_[sphere_geom_].is_sphere_set = true;
+    }
+    rtcCommitScene(rtc_);
+    if (rtcGetDeviceError(device_) != RTC_ERROR_NONE)
+      throw std::runtime_error(scene.source + ": Embree failed to build the scene (error " +
+                               std::to_string(rtcGetDeviceError(device_)) + ")");
+  }
+  ~CpuBackend() override {
+    rtcReleaseScene(rtc_);
+    rtcReleaseDevice(device_);
+  }
+
+  std::string name() const override { return "cpu"; }
+  std::string device_name() const override {
+    return std::to_string(threads_) + " CPU thread" + (threads_ > 1 ? "s" : "") + " (Embree " +
+           std::to_string(RTC_VERSION_MAJOR) + "." + std::to_string(RTC_VERSION_MINOR) + "." +
+           std::to_string(RTC_VERSION_PATCH) + ")";
+  }
+
+  // The integrator's view of Embree.
+  struct Tracer {
+    const CpuBackend* self;
+    bool intersect(const Ray& ray, float tmax, SurfaceHit* hit) const {
+      RTCIntersectContext ctx;
+      rtcInitIntersectContext(&ctx);
+      RTCRayHit rh;
+      rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
+      rh.ray.dir_x = ray.d.x; rh.ray.dir_y = ray.d.y; rh.ray.dir_z = ray.d.z;
+      rh.ray.tnear = 0.f;
+      rh.ray.tfar = tmax;
+      rh.ray.mask = 0xFFFFFFFFu;
+      rh.ray.flags = 0;
+      rh.ray.time = 0.f;
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      rtcIntersect1(self->rtc_, &ctx, &rh);
+      if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+      hit->t = rh.ray.tfar;
+      const GeomInfo& g = self->geoms_[rh.hit.geomID];
+      if (g.is_sphere_set) {
+        const Sphere& s = self->scene_.spheres[rh.hit.primID];
+        sphere_hit(s.center, s.radius, ray, hit->t, &hit->p, &hit->n);
+        hit->material = s.material;
+        hit->light = s.light;
+      } else {
+        const auto& tri = g.mesh->indices[rh.hit.primID];
+        const auto& P = g.mesh->positions;
+        triangle_hit(P[tri[0]], P[tri[1]], P[tri[2]], rh.hit.u, rh.hit.v, &hit->p, &hit->n);
+        hit->material = g.material;
+        hit->light = g.light;
+      }
+      return true;
+    }
+    bool occluded(const Ray& ray, float tmax) const {
+      RTCIntersectContext ctx;
+      rtcInitIntersectContext(&ctx);
+      RTCRay r;
+      r.org_x = ray.o.x; r.org_y = ray.o.y; r.org_z = ray.o.z;
+      r.dir_x = ray.d.x; r.dir_y = ray.d.y; r.dir_z = ray.d.z;
+      r.tnear = 0.f;
+      r.tfar = tmax;
+      r.mask = 0xFFFFFFFFu;
+      r.flags = 0;
+      r.time = 0.f;
+      rtcOccluded1(self->rtc_, &ctx, &r);
+      return r.tfar < 0.f;
+    }
+  };
+
+  void render(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
+              const ProgressFn& progress) override {
+    const int W = frame.camera.width, H = frame.camera.height;
+    if (film.width() != W || film.height() != H) throw std::logic_error("film size differs from the camera's");
+    constexpr int kTile = 16;
+    const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
+    const int num_tiles = tiles_x * tiles_y;
+    const uint64_t total = uint64_t(W) * H * count;
+    std::atomic<int> next_tile{0};
+    std::atomic<uint64_t> done{0};
+    std::atomic<uint64_t> nonfinite{0};
+    std::mutex progress_mutex;
+    Tracer tracer{this};
+    double* sum = film.sum();
+    double* sum_sq = film.sum_sq();
+
+    auto worker = [&]() {
+      for (int t; (t = next_tile.fetch_add(1)) < num_tiles;) {
+        int x0 = (t % tiles_x) * kTile, y0 = (t / tiles_x) * kTile;
+        int x1 = std::min(x0 + kTile, W), y1 = std::min(y0 + kTile, H);
+        uint64_t bad = 0;
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x) {
+            double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+            for (uint32_t i = 0; i < count; ++i) {
+              Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
+              if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
+                ++bad;
+                continue;
+              }
+              for (int c = 0; c < 3; ++c) {
+                s[c] += L[c];
+                s2[c] += double(L[c]) * L[c];
+              }
+            }
+            size_t o = (size_t(y) * W + x) * 3;
+            for (int c = 0; c < 3; ++c) {
+              sum[o + c] += s[c];
+              sum_sq[o + c] += s2[c];
+            }
+          }
+        nonfinite += bad;
+        uint64_t d = done += uint64_t(x1 - x0) * (y1 - y0) * count;
+        if (progress) {
+          std::lock_guard<std::mutex> lock(progress_mutex);
+          progress(d, total);
+        }
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int i = 1; i < threads_; ++i) pool.emplace_back(worker);
+    worker();
+    for (auto& th : pool) th.join();
+    film.add_samples(count);
+    if (nonfinite.load() > 0)
+      throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite.load()) +
+                               " samples were NaN or infinite (a bug in penumbra: please report the scene)");
+  }
+
+ private:
+  const Scene& scene_;
+  SceneView view_;
+  int threads_ = 1;
+  RTCDevice device_ = nullptr;
+  RTCScene rtc_ = nullptr;
+  std::vector<GeomInfo> geoms_;
+  unsigned sphere_geom_ = RTC_INVALID_GEOMETRY_ID;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> make_cpu_backend(const Scene& scene, int threads) {
+  return std::make_unique<CpuBackend>(scene, threads);
+}
+
+}  // namespace pn

@@ -1,0 +1,22 @@
+// Image files. The format follows the file extension:
+//   .exr  linear RGB, float32 (tinyexr)
+//   .png  sRGB 8-bit, after exposure (x 2^stops) and clamping (stb_image_write)
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace pn {
+
+// rgb: width*height*3 floats, row 0 at the top. Throws std::runtime_error with
+// one line naming the path on failure or on an unknown extension.
+void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb,
+                 float exposure_stops = 0.f);
+
+// Reads a linear float RGB EXR written by write_image (or any RGB(A) EXR).
+std::vector<float> read_exr(const std::string& path, int* width, int* height);
+
+// Linear -> sRGB-encoded 8-bit value.
+unsigned char to_srgb8(float linear);
+
+}  // namespace pn

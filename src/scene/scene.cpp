@@ -1,0 +1,457 @@
+// Scene parsing and validation. Every rejection names the file and the field.
+#include "scene/scene.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "scene/mesh_io.h"
+
+namespace pn {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// Limits that reject absurd requests before they turn into crashes or hangs.
+constexpr int kMaxResolution = 16384;
+constexpr int kMaxSpp = 1 << 24;
+constexpr int kMaxDepth = 1024;
+constexpr float kMaxCoordinate = 1e7f;
+
+// A JSON value together with where it lives, for error messages.
+struct Node {
+  const json& j;
+  std::string path;  // e.g. "lights[0].radius"
+  const std::string& source;
+
+  [[noreturn]] void fail(const std::string& msg) const {
+    throw SceneError(source + ": " + (path.empty() ? std::string("(top level)") : path) + ": " + msg);
+  }
+  Node at(const std::string& key) const {
+    return Node{j.at(key), path.empty() ? key : path + "." + key, source};
+  }
+  Node at(size_t i) const { return Node{j.at(i), path + "[" + std::to_string(i) + "]", source}; }
+  bool has(const std::string& key) const { return j.contains(key); }
+
+  void expect_object(const std::set<std::string>& allowed) const {
+    if (!j.is_object()) fail("expected an object, got " + std::string(j.type_name()));
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      if (!allowed.count(it.key())) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        at(it.key()).fail("unknown key (expected one of: " + list + ")");
+      }
+    }
+  }
+  void require(const std::string& key) const {
+    if (!has(key)) fail("missing required key '" + key + "'");
+  }
+
+  double number() const {
+    if (!j.is_number()) fail("expected a number, got " + std::string(j.type_name()));
+    double v = j.get<double>();
+    if (!std::isfinite(v)) fail("must be a finite number");
+    return v;
+  }
+  float real(double lo, double hi) const {
+    double v = number();
+    if (v < lo || v > hi) {
+      std::ostringstream os;
+      os << "must be in [" << lo << ", " << hi << "] (got " << v << ")";
+      fail(os.str());
+    }
+    return float(v);
+  }
+  float positive(double hi) const {
+    double v = number();
+    if (!(v > 0.0) || v > hi) {
+      std::ostringstream os;
+      os << "must be > 0 and <= " << hi << " (got " << v << ")";
+      fail(os.str());
+    }
+    return float(v);
+  }
+  int integer(long lo, long hi) const {
+    if (!j.is_number_integer() && !j.is_number_unsigned()) {
+      if (j.is_number_float()) fail("expected an integer, got " + j.dump());
+      fail("expected an integer, got " + std::string(j.type_name()));
+    }
+    long long v = j.is_number_unsigned() ? (long long)std::min<uint64_t>(j.get<uint64_t>(), uint64_t(1) << 62)
+                                         : j.get<long long>();
+    if (v < lo || v > hi) fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "] (got " + std::to_string(v) + ")");
+    return int(v);
+  }
+  std::string string() const {
+    if (!j.is_string()) fail("expected a string, got " + std::string(j.type_name()));
+    return j.get<std::string>();
+  }
+  Vec3 vec3(float limit = kMaxCoordinate) const {
+    if (!j.is_array() || j.size() != 3) fail("expected an array of 3 numbers");
+    Vec3 v;
+    for (int i = 0; i < 3; ++i) v[i] = at(size_t(i)).real(-limit, limit);
+    return v;
+  }
+  // A colour: one number (grey) or [r, g, b], each in [0, hi].
+  Vec3 color(float hi) const {
+    if (j.is_number()) {
+      float g = real(0.0, hi);
+      return Vec3(g);
+    }
+    if (!j.is_array() || j.size() != 3) fail("expected a number or an array of 3 numbers");
+    Vec3 v;
+    for (int i = 0; i < 3; ++i) v[i] = at(size_t(i)).real(0.0, hi);
+    return v;
+  }
+};
+
+std::string parent_dir(const std::string& path) {
+  fs::path p(path);
+  return p.has_parent_path() ? p.parent_path().string() : std::string(".");
+}
+
+void add_quad(Scene& s, const std::string& name, Vec3 corner, Vec3 e1, Vec3 e2, uint32_t material,
+              int32_t light) {
+  TriangleMesh m;
+  m.name = name;
+  m.positions = {corner, corner + e1, corner + e1 + e2, corner + e2};
+  m.indices = {{0, 1, 2}, {0, 2, 3}};
+  m.material = material;
+  m.light = light;
+  s.meshes.push_back(std::move(m));
+}
+
+// Axis-aligned box of `size` centred at `center`, rotated about +y by `rot_y`
+// degrees, with outward-facing triangles.
+void add_box(Scene& s, const std::string& name, Vec3 center, Vec3 size, float rot_y, uint32_t material) {
+  float c = std::cos(rot_y * kPi / 180.f), sn = std::sin(rot_y * kPi / 180.f);
+  TriangleMesh m;
+  m.name = name;
+  for (int i = 0; i < 8; ++i) {
+    Vec3 q((i & 1 ? 0.5f : -0.5f) * size.x, (i & 2 ? 0.5f : -0.5f) * size.y, (i & 4 ? 0.5f : -0.5f) * size.z);
+    m.positions.push_back(center + Vec3(c * q.x + sn * q.z, q.y, -sn * q.x + c * q.z));
+  }
+  // Faces as corner quads (a, b, c, d) counter-clockwise seen from outside.
+  const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& f : faces) {
+    m.indices.push_back({uint32_t(f[0]), uint32_t(f[1]), uint32_t(f[2])});
+    m.indices.push_back({uint32_t(f[0]), uint32_t(f[2]), uint32_t(f[3])});
+  }
+  m.material = material;
+  s.meshes.push_back(std::move(m));
+}
+
+uint32_t material_ref(const Node& n, const std::map<std::string, uint32_t>& materials) {
+  std::string name = n.string();
+  auto it = materials.find(name);
+  if (it == materials.end()) {
+    std::string list;
+    for (const auto& kv : materials) list += (list.empty() ? "" : ", ") + kv.first;
+    n.fail("unknown material '" + name + "' (defined: " + (list.empty() ? "none" : list) + ")");
+  }
+  return it->second;
+}
+
+void parse_camera(const Node& n, Scene& s) {
+  n.expect_object({"eye", "target", "up", "fov"});
+  n.require("eye");
+  n.require("target");
+  s.camera.eye = n.at("eye").vec3();
+  s.camera.target = n.at("target").vec3();
+  if (n.has("up")) s.camera.up = n.at("up").vec3();
+  if (n.has("fov")) s.camera.fov = n.at("fov").real(0.1, 179.0);
+  Vec3 f = s.camera.target - s.camera.eye;
+  if (!(length(f) > 0.f)) n.at("target").fail("must differ from camera.eye");
+  if (!(length(cross(normalize(f), s.camera.up)) > 1e-4f))
+    n.at("up").fail("must not be parallel to the viewing direction (and not zero)");
+}
+
+void parse_render(const Node& n, Scene& s) {
+  n.expect_object({"width", "height", "spp", "max_depth", "rr_depth", "strategy", "seed"});
+  RenderSettings& r = s.render;
+  if (n.has("width")) r.width = n.at("width").integer(1, kMaxResolution);
+  if (n.has("height")) r.height = n.at("height").integer(1, kMaxResolution);
+  if (n.has("spp")) r.spp = n.at("spp").integer(1, kMaxSpp);
+  if (n.has("max_depth")) r.max_depth = n.at("max_depth").integer(0, kMaxDepth);
+  if (n.has("rr_depth")) r.rr_depth = n.at("rr_depth").integer(1, kMaxDepth);
+  if (n.has("strategy")) r.strategy = parse_strategy(n.at("strategy").string(), s.source + ": " + n.path + ".strategy");
+  if (n.has("seed")) r.seed = uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max())));
+}
+
+void parse_shape(const Node& n, Scene& s, const std::map<std::string, uint32_t>& mats,
+                 const std::string& base_dir) {
+  if (!n.j.is_object()) n.fail("expected an object");
+  n.require("type");
+  std::string type = n.at("type").string();
+  auto mat = [&]() { n.require("material"); return material_ref(n.at("material"), mats); };
+  if (type == "sphere") {
+    n.expect_object({"type", "center", "radius", "material"});
+    n.require("center");
+    n.require("radius");
+    Sphere sp;
+    sp.center = n.at("center").vec3();
+    sp.radius = n.at("radius").positive(kMaxCoordinate);
+    sp.material = mat();
+    s.spheres.push_back(sp);
+  } else if (type == "quad") {
+    n.expect_object({"type", "corner", "edge1", "edge2", "material"});
+    for (auto k : {"corner", "edge1", "edge2"}) n.require(k);
+    Vec3 e1 = n.at("edge1").vec3(), e2 = n.at("edge2").vec3();
+    if (!(length(cross(e1, e2)) > 0.f)) n.fail("edge1 and edge2 must span a non-zero area");
+    add_quad(s, n.path, n.at("corner").vec3(), e1, e2, mat(), -1);
+  } else if (type == "box") {
+    n.expect_object({"type", "center", "size", "rotate_y", "material"});
+    n.require("center");
+    n.require("size");
+    Vec3 size = n.at("size").vec3();
+    if (!(size.x > 0.f && size.y > 0.f && size.z > 0.f)) n.at("size").fail("every extent must be > 0");
+    float rot = n.has("rotate_y") ? n.at("rotate_y").real(-3600.0, 3600.0) : 0.f;
+    add_box(s, n.path, n.at("center").vec3(), size, rot, mat());
+  } else if (type == "mesh") {
+    n.expect_object({"type", "positions", "indices", "file", "translate", "scale", "material"});
+    TriangleMesh m;
+    m.name = n.path;
+    if (n.has("file")) {
+      if (n.has("positions") || n.has("indices")) n.fail("give either 'file' or 'positions'/'indices', not both");
+      std::string file = n.at("file").string();
+      fs::path p(file);
+      if (p.is_relative()) p = fs::path(base_dir) / p;
+      std::string err;
+      if (!load_obj_triangles(p.string(), &m.positions, &m.indices, &err)) n.at("file").fail(err);
+    } else {
+      n.require("positions");
+      n.require("indices");
+      Node pos = n.at("positions"), idx = n.at("indices");
+      if (!pos.j.is_array() || pos.j.empty()) pos.fail("expected a non-empty array of [x, y, z]");
+      if (!idx.j.is_array() || idx.j.empty()) idx.fail("expected a non-empty array of [i, j, k]");
+      for (size_t i = 0; i < pos.j.size(); ++i) m.positions.push_back(pos.at(i).vec3());
+      for (size_t i = 0; i < idx.j.size(); ++i) {
+        Node t = idx.at(i);
+        if (!t.j.is_array() || t.j.size() != 3) t.fail("expected an array of 3 vertex indices");
+        std::array<uint32_t, 3> tri;
+        for (int k = 0; k < 3; ++k) tri[k] = uint32_t(t.at(size_t(k)).integer(0, long(m.positions.size()) - 1));
+        m.indices.push_back(tri);
+      }
+    }
+    Vec3 scale(1.f), translate(0.f);
+    if (n.has("scale")) {
+      Node sc = n.at("scale");
+      scale = sc.j.is_number() ? Vec3(sc.positive(kMaxCoordinate)) : sc.vec3();
+      if (!(scale.x != 0.f && scale.y != 0.f && scale.z != 0.f)) sc.fail("scale factors must be non-zero");
+    }
+    if (n.has("translate")) translate = n.at("translate").vec3();
+    for (Vec3& p : m.positions) {
+      p = p * scale + translate;
+      if (!is_finite(p)) n.fail("vertex coordinates overflow after scale/translate");
+    }
+    m.material = mat();
+    s.meshes.push_back(std::move(m));
+  } else {
+    n.at("type").fail("unknown shape type '" + type + "' (expected sphere, quad, box or mesh)");
+  }
+}
+
+// Lights are given by `radiance` L or by total emitted `power` Phi (watts per
+// RGB channel). For a surface emitting L on one side into the hemisphere,
+// Phi = pi * A * L, so a sphere of radius r has L = Phi / (4 pi^2 r^2): with power
+// fixed, changing the radius leaves the scene's brightness unchanged.
+void parse_light(const Node& n, Scene& s, const std::map<std::string, uint32_t>& mats) {
+  if (!n.j.is_object()) n.fail("expected an object");
+  n.require("type");
+  std::string type = n.at("type").string();
+  bool has_l = n.has("radiance"), has_p = n.has("power");
+  if (has_l == has_p) n.fail("give exactly one of 'radiance' or 'power'");
+  const float kMaxEmission = 1e9f;
+  uint32_t black = 0;  // material 0 is the implicit black "light" material
+  int32_t index = int32_t(s.lights.size());
+  uint32_t material = n.has("material") ? material_ref(n.at("material"), mats) : black;
+  if (type == "sphere") {
+    n.expect_object({"type", "center", "radius", "radiance", "power", "material"});
+    n.require("center");
+    n.require("radius");
+    Vec3 c = n.at("center").vec3();
+    float r = n.at("radius").positive(kMaxCoordinate);
+    float area = 4.f * kPi * r * r;
+    Vec3 L = has_l ? n.at("radiance").color(kMaxEmission) : n.at("power").color(kMaxEmission) / (kPi * area);
+    if (!is_finite(L)) n.at("radius").fail("too small for the given power (radiance overflows)");
+    s.lights.push_back(Light::sphere(c, r, L));
+    s.spheres.push_back(Sphere{c, r, material, index});
+  } else if (type == "quad") {
+    n.expect_object({"type", "corner", "edge1", "edge2", "radiance", "power", "material"});
+    for (auto k : {"corner", "edge1", "edge2"}) n.require(k);
+    Vec3 corner = n.at("corner").vec3(), e1 = n.at("edge1").vec3(), e2 = n.at("edge2").vec3();
+    float area = length(cross(e1, e2));
+    if (!(area > 0.f)) n.fail("edge1 and edge2 must span a non-zero area");
+    Vec3 L = has_l ? n.at("radiance").color(kMaxEmission) : n.at("power").color(kMaxEmission) / (kPi * area);
+    if (!is_finite(L)) n.fail("too small for the given power (radiance overflows)");
+    s.lights.push_back(Light::quad(corner, e1, e2, L));
+    add_quad(s, n.path, corner, e1, e2, material, index);
+  } else {
+    n.at("type").fail("unknown light type '" + type + "' (expected sphere or quad)");
+  }
+}
+
+}  // namespace
+
+std::string strategy_names() {
+  std::string out;
+  for (int i = 0; i < kNumStrategies; ++i) out += (i ? ", " : "") + std::string(strategy_name(Strategy(i)));
+  return out;
+}
+
+Strategy parse_strategy(const std::string& name, const std::string& where) {
+  for (int i = 0; i < kNumStrategies; ++i)
+    if (name == strategy_name(Strategy(i))) return Strategy(i);
+  throw SceneError(where + ": unknown strategy '" + name + "' (expected one of: " + strategy_names() + ")");
+}
+
+Scene parse_scene(const json& doc, const std::string& source, const std::string& base_dir) {
+  Scene s;
+  s.source = source;
+  Node root{doc, "", s.source};
+  root.expect_object({"camera", "render", "background", "materials", "shapes", "lights"});
+  root.require("camera");
+  parse_camera(root.at("camera"), s);
+  if (root.has("render")) parse_render(root.at("render"), s);
+  if (root.has("background")) s.background = root.at("background").color(1e9f);
+
+  // Material 0 is black: the default surface of lights.
+  s.materials.push_back(Material{Vec3(0.f)});
+  s.material_names.push_back("(light)");
+  std::map<std::string, uint32_t> mats;
+  if (root.has("materials")) {
+    Node ms = root.at("materials");
+    if (!ms.j.is_object()) ms.fail("expected an object mapping names to materials");
+    for (auto it = ms.j.begin(); it != ms.j.end(); ++it) {
+      Node m = ms.at(it.key());
+      m.expect_object({"albedo"});
+      m.require("albedo");
+      mats[it.key()] = uint32_t(s.materials.size());
+      s.materials.push_back(Material{m.at("albedo").color(1.f)});
+      s.material_names.push_back(it.key());
+    }
+  }
+  if (root.has("shapes")) {
+    Node shapes = root.at("shapes");
+    if (!shapes.j.is_array()) shapes.fail("expected an array");
+    for (size_t i = 0; i < shapes.j.size(); ++i) parse_shape(shapes.at(i), s, mats, base_dir);
+  }
+  if (root.has("lights")) {
+    Node lights = root.at("lights");
+    if (!lights.j.is_array()) lights.fail("expected an array");
+    for (size_t i = 0; i < lights.j.size(); ++i) parse_light(lights.at(i), s, mats);
+  }
+  if (s.spheres.empty() && s.meshes.empty()) root.fail("the scene has no shapes and no lights");
+  return s;
+}
+
+void apply_override(json& doc, const std::string& assignment, const std::string& source) {
+  auto eq = assignment.find('=');
+  auto fail = [&](const std::string& msg) -> void {
+    throw SceneError(source + ": --set " + assignment + ": " + msg);
+  };
+  if (eq == std::string::npos || eq == 0) fail("expected key=value, e.g. light.radius=0.05");
+  std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+  if (key == "light" || key.rfind("light.", 0) == 0) key = "lights.0" + key.substr(5);
+  std::vector<std::string> parts;
+  std::stringstream ss(key);
+  for (std::string p; std::getline(ss, p, '.');) {
+    if (p.empty()) fail("empty component in key '" + key + "'");
+    parts.push_back(p);
+  }
+  json value = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (value.is_discarded()) value = text;  // a bare word: a string
+  json* cur = &doc;
+  for (size_t i = 0; i < parts.size(); ++i) {
+    const std::string& p = parts[i];
+    bool last = i + 1 == parts.size();
+    if (cur->is_array()) {
+      char* end = nullptr;
+      unsigned long idx = std::strtoul(p.c_str(), &end, 10);
+      if (*end != '\0') fail("'" + p + "' is not an index into an array");
+      if (idx >= cur->size()) fail("index " + p + " is out of range (size " + std::to_string(cur->size()) + ")");
+      cur = &(*cur)[idx];
+    } else if (cur->is_object()) {
+      if (!last && !cur->contains(p)) fail("no field '" + p + "' to descend into");
+      if (last && cur->contains("radiance") && p == "power") cur->erase("radiance");
+      if (last && cur->contains("power") && p == "radiance") cur->erase("power");
+      cur = &(*cur)[p];
+    } else {
+      fail("'" + p + "' cannot be set inside a " + std::string(cur->type_name()));
+    }
+  }
+  *cur = value;
+}
+
+json load_scene_json(const std::string& name_or_path, const std::vector<std::string>& overrides,
+                     std::string* source) {
+  json doc;
+  if (const BuiltinScene* b = find_builtin(name_or_path)) {
+    *source = "builtin:" + name_or_path;
+    doc = b->make();
+  } else {
+    *source = name_or_path;
+    std::ifstream in(name_or_path, std::ios::binary);
+    if (!in) {
+      std::string names;
+      for (const auto& bs : builtin_scenes()) names += (names.empty() ? "" : ", ") + std::string(bs.name);
+      throw SceneError(name_or_path + ": cannot open scene file (and it is not a built-in scene: " + names + ")");
+    }
+    std::stringstream buf;
+    buf << in.rdbuf();
+    try {
+      doc = json::parse(buf.str());
+    } catch (const json::parse_error& e) {
+      std::string what = e.what();
+      auto pos = what.find("parse error");
+      throw SceneError(name_or_path + ": invalid JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
+    }
+  }
+  for (const auto& o : overrides) apply_override(doc, o, *source);
+  return doc;
+}
+
+Scene load_scene(const std::string& name_or_path, const std::vector<std::string>& overrides) {
+  std::string source;
+  json doc = load_scene_json(name_or_path, overrides, &source);
+  std::string base = find_builtin(name_or_path) ? std::string(".") : parent_dir(name_or_path);
+  try {
+    return parse_scene(doc, source, base);
+  } catch (const json::exception& e) {  // should not happen: Node checks types first
+    throw SceneError(source + ": " + e.what());
+  }
+}
+
+SceneView Scene::view() const {
+  SceneView v;
+  v.lights = lights.data();
+  v.num_lights = uint32_t(lights.size());
+  v.materials = materials.data();
+  v.num_materials = uint32_t(materials.size());
+  v.background = background;
+  return v;
+}
+
+Camera Scene::make_camera() const {
+  return Camera::look_at(camera.eye, camera.target, camera.up, camera.fov, render.width, render.height);
+}
+
+IntegratorSettings Scene::integrator() const {
+  IntegratorSettings s;
+  s.strategy = render.strategy;
+  s.max_depth = render.max_depth;
+  s.rr_depth = render.rr_depth;
+  return s;
+}
+
+size_t Scene::triangle_count() const {
+  size_t n = 0;
+  for (const auto& m : meshes) n += m.indices.size();
+  return n;
+}
+
+}  // namespace pn
