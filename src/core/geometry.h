@@ -3,6 +3,7 @@
 #pragma once
 
 #include "common.h"
+#include "transform.h"
 #include "vec.h"
 
 namespace pn {
@@ -98,6 +99,12 @@ PN_FN void sphere_hit(Vec3 center, float radius, const Ray& ray, float t, Vec3* 
   Vec3 q = ray.at(t);
   *n = normalize(q - center);
   *p = center + *n * radius;
+}
+
+// Moves an object-space hit of an instance into world space.
+PN_FN void instance_to_world(const Affine& to_world, const Affine& to_object, Vec3* p, Vec3* n) {
+  *p = to_world.point(*p);
+  *n = normalize(to_object.transpose_vector(*n));
 }
 
 }  // namespace pn

@@ -65,12 +65,15 @@ json make_cornell_near() {
 json make_occlusion() {
   json doc = cornell_box(0.3f, {2.78, 4.95, 2.8});
   const float pitch = 0.25f, width = 0.17f, thick = 0.04f;
+  // Two slat meshes, each placed many times by instances (one GAS each on the GPU).
+  doc["meshes"] = {{"slat-x", {{"type", "box"}, {"center", {0, 0, 0}}, {"size", {width, thick, kD}}}},
+                   {"slat-z", {{"type", "box"}, {"center", {0, 0, 0}}, {"size", {kW, thick, width}}}}};
   for (int i = 0; pitch * (i + 0.5f) < kW; ++i)
-    doc["shapes"].push_back({{"type", "box"}, {"center", {pitch * (i + 0.5f), 4.42, kD / 2}},
-                             {"size", {width, thick, kD}}, {"material", "slat"}});
+    doc["shapes"].push_back({{"type", "instance"}, {"mesh", "slat-x"}, {"material", "slat"},
+                             {"transform", {{"translate", {pitch * (i + 0.5f), 4.42, kD / 2}}}}});
   for (int i = 0; pitch * (i + 0.5f) < kD; ++i)
-    doc["shapes"].push_back({{"type", "box"}, {"center", {kW / 2, 4.37, pitch * (i + 0.5f)}},
-                             {"size", {kW, thick, width}}, {"material", "slat"}});
+    doc["shapes"].push_back({{"type", "instance"}, {"mesh", "slat-z"}, {"material", "slat"},
+                             {"transform", {{"translate", {kW / 2, 4.37, pitch * (i + 0.5f)}}}}});
   return doc;
 }
 

@@ -114,20 +114,17 @@ std::string parent_dir(const std::string& path) {
   return p.has_parent_path() ? p.parent_path().string() : std::string(".");
 }
 
-void add_quad(Scene& s, const std::string& name, Vec3 corner, Vec3 e1, Vec3 e2, uint32_t material,
-              int32_t light) {
+TriangleMesh quad_mesh(const std::string& name, Vec3 corner, Vec3 e1, Vec3 e2) {
   TriangleMesh m;
   m.name = name;
   m.positions = {corner, corner + e1, corner + e1 + e2, corner + e2};
   m.indices = {{0, 1, 2}, {0, 2, 3}};
-  m.material = material;
-  m.light = light;
-  s.meshes.push_back(std::move(m));
+  return m;
 }
 
 // Axis-aligned box of `size` centred at `center`, rotated about +y by `rot_y`
 // degrees, with outward-facing triangles.
-void add_box(Scene& s, const std::string& name, Vec3 center, Vec3 size, float rot_y, uint32_t material) {
+TriangleMesh box_mesh(const std::string& name, Vec3 center, Vec3 size, float rot_y) {
   float c = std::cos(rot_y * kPi / 180.f), sn = std::sin(rot_y * kPi / 180.f);
   TriangleMesh m;
   m.name = name;
@@ -141,8 +138,24 @@ void add_box(Scene& s, const std::string& name, Vec3 center, Vec3 size, float ro
     m.indices.push_back({uint32_t(f[0]), uint32_t(f[1]), uint32_t(f[2])});
     m.indices.push_back({uint32_t(f[0]), uint32_t(f[2]), uint32_t(f[3])});
   }
-  m.material = material;
+  return m;
+}
+
+// Adds a mesh to the scene and returns its index.
+uint32_t add_mesh(Scene& s, TriangleMesh m) {
   s.meshes.push_back(std::move(m));
+  return uint32_t(s.meshes.size() - 1);
+}
+
+void add_instance(Scene& s, uint32_t mesh, const Affine& to_world, uint32_t material, int32_t light) {
+  Instance inst;
+  inst.mesh = mesh;
+  inst.to_world = to_world;
+  bool ok = false;
+  inst.to_object = inverse(to_world, &ok);
+  inst.material = material;
+  inst.light = light;
+  s.instances.push_back(inst);
 }
 
 uint32_t material_ref(const Node& n, const std::map<std::string, uint32_t>& materials) {
@@ -182,12 +195,114 @@ void parse_render(const Node& n, Scene& s) {
   if (n.has("seed")) r.seed = uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max())));
 }
 
+// {"translate": [x,y,z], "rotate": [ax, ay, az, degrees], "scale": s or [sx,sy,sz]},
+// applied in the order scale, rotate, translate.
+Affine parse_transform(const Node& n) {
+  n.expect_object({"translate", "rotate", "scale"});
+  Affine t;
+  if (n.has("scale")) {
+    Node sc = n.at("scale");
+    Vec3 v = sc.j.is_number() ? Vec3(sc.positive(kMaxCoordinate)) : sc.vec3();
+    if (!(v.x != 0.f && v.y != 0.f && v.z != 0.f)) sc.fail("scale factors must be non-zero");
+    t = scaling(v);
+  }
+  if (n.has("rotate")) {
+    Node r = n.at("rotate");
+    if (!r.j.is_array() || r.j.size() != 4) r.fail("expected [axis_x, axis_y, axis_z, degrees]");
+    Vec3 axis(r.at(size_t(0)).real(-1e6, 1e6), r.at(size_t(1)).real(-1e6, 1e6), r.at(size_t(2)).real(-1e6, 1e6));
+    if (!(length(axis) > 0.f)) r.fail("the rotation axis must not be zero");
+    t = compose(rotation(normalize(axis), r.at(size_t(3)).real(-3600.0, 3600.0)), t);
+  }
+  if (n.has("translate")) t = compose(translation(n.at("translate").vec3()), t);
+  bool ok = false;
+  inverse(t, &ok);
+  if (!ok) n.fail("the transform is not invertible");
+  return t;
+}
+
+// The geometry of a quad, box or mesh (shared by "shapes" and "meshes").
+TriangleMesh parse_geometry(const Node& n, const std::string& type, const std::string& base_dir) {
+  if (type == "quad") {
+    for (auto k : {"corner", "edge1", "edge2"}) n.require(k);
+    Vec3 e1 = n.at("edge1").vec3(), e2 = n.at("edge2").vec3();
+    if (!(length(cross(e1, e2)) > 0.f)) n.fail("edge1 and edge2 must span a non-zero area");
+    return quad_mesh(n.path, n.at("corner").vec3(), e1, e2);
+  }
+  if (type == "box") {
+    n.require("center");
+    n.require("size");
+    Vec3 size = n.at("size").vec3();
+    if (!(size.x > 0.f && size.y > 0.f && size.z > 0.f)) n.at("size").fail("every extent must be > 0");
+    float rot = n.has("rotate_y") ? n.at("rotate_y").real(-3600.0, 3600.0) : 0.f;
+    return box_mesh(n.path, n.at("center").vec3(), size, rot);
+  }
+  // type == "mesh"
+  TriangleMesh m;
+  m.name = n.path;
+  if (n.has("file")) {
+    if (n.has("positions") || n.has("indices")) n.fail("give either 'file' or 'positions'/'indices', not both");
+    std::string file = n.at("file").string();
+    fs::path p(file);
+    if (p.is_relative()) p = fs::path(base_dir) / p;
+    std::string err;
+    if (!load_obj_triangles(p.string(), &m.positions, &m.indices, &err)) n.at("file").fail(err);
+    return m;
+  }
+  n.require("positions");
+  n.require("indices");
+  Node pos = n.at("positions"), idx = n.at("indices");
+  if (!pos.j.is_array() || pos.j.empty()) pos.fail("expected a non-empty array of [x, y, z]");
+  if (!idx.j.is_array() || idx.j.empty()) idx.fail("expected a non-empty array of [i, j, k]");
+  for (size_t i = 0; i < pos.j.size(); ++i) m.positions.push_back(pos.at(i).vec3());
+  for (size_t i = 0; i < idx.j.size(); ++i) {
+    Node t = idx.at(i);
+    if (!t.j.is_array() || t.j.size() != 3) t.fail("expected an array of 3 vertex indices");
+    std::array<uint32_t, 3> tri;
+    for (int k = 0; k < 3; ++k) tri[k] = uint32_t(t.at(size_t(k)).integer(0, long(m.positions.size()) - 1));
+    m.indices.push_back(tri);
+  }
+  return m;
+}
+
+const std::set<std::string> kGeometryKeys[] = {
+    {"corner", "edge1", "edge2"},                 // quad
+    {"center", "size", "rotate_y"},               // box
+    {"positions", "indices", "file"},             // mesh
+};
+
+std::set<std::string> geometry_keys(const Node& n, const std::string& type, std::set<std::string> extra) {
+  int k = type == "quad" ? 0 : type == "box" ? 1 : type == "mesh" ? 2 : -1;
+  if (k < 0) n.at("type").fail("unknown type '" + type + "'");
+  extra.insert(kGeometryKeys[k].begin(), kGeometryKeys[k].end());
+  return extra;
+}
+
+// "meshes": {"name": {"type": "quad" | "box" | "mesh", geometry...}}: shared
+// geometry placed by shapes of type "instance".
+void parse_named_meshes(const Node& n, Scene& s, std::map<std::string, uint32_t>* named,
+                        const std::string& base_dir) {
+  if (!n.j.is_object()) n.fail("expected an object mapping names to meshes");
+  for (auto it = n.j.begin(); it != n.j.end(); ++it) {
+    Node m = n.at(it.key());
+    if (!m.j.is_object()) m.fail("expected an object");
+    m.require("type");
+    std::string type = m.at("type").string();
+    if (type != "quad" && type != "box" && type != "mesh")
+      m.at("type").fail("unknown mesh type '" + type + "' (expected quad, box or mesh)");
+    m.expect_object(geometry_keys(m, type, {"type"}));
+    TriangleMesh mesh = parse_geometry(m, type, base_dir);
+    mesh.name = it.key();
+    (*named)[it.key()] = add_mesh(s, std::move(mesh));
+  }
+}
+
 void parse_shape(const Node& n, Scene& s, const std::map<std::string, uint32_t>& mats,
-                 const std::string& base_dir) {
+                 const std::map<std::string, uint32_t>& named, const std::string& base_dir) {
   if (!n.j.is_object()) n.fail("expected an object");
   n.require("type");
   std::string type = n.at("type").string();
   auto mat = [&]() { n.require("material"); return material_ref(n.at("material"), mats); };
+  auto xform = [&]() { return n.has("transform") ? parse_transform(n.at("transform")) : Affine(); };
   if (type == "sphere") {
     n.expect_object({"type", "center", "radius", "material"});
     n.require("center");
@@ -197,61 +312,22 @@ void parse_shape(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
     sp.radius = n.at("radius").positive(kMaxCoordinate);
     sp.material = mat();
     s.spheres.push_back(sp);
-  } else if (type == "quad") {
-    n.expect_object({"type", "corner", "edge1", "edge2", "material"});
-    for (auto k : {"corner", "edge1", "edge2"}) n.require(k);
-    Vec3 e1 = n.at("edge1").vec3(), e2 = n.at("edge2").vec3();
-    if (!(length(cross(e1, e2)) > 0.f)) n.fail("edge1 and edge2 must span a non-zero area");
-    add_quad(s, n.path, n.at("corner").vec3(), e1, e2, mat(), -1);
-  } else if (type == "box") {
-    n.expect_object({"type", "center", "size", "rotate_y", "material"});
-    n.require("center");
-    n.require("size");
-    Vec3 size = n.at("size").vec3();
-    if (!(size.x > 0.f && size.y > 0.f && size.z > 0.f)) n.at("size").fail("every extent must be > 0");
-    float rot = n.has("rotate_y") ? n.at("rotate_y").real(-3600.0, 3600.0) : 0.f;
-    add_box(s, n.path, n.at("center").vec3(), size, rot, mat());
-  } else if (type == "mesh") {
-    n.expect_object({"type", "positions", "indices", "file", "translate", "scale", "material"});
-    TriangleMesh m;
-    m.name = n.path;
-    if (n.has("file")) {
-      if (n.has("positions") || n.has("indices")) n.fail("give either 'file' or 'positions'/'indices', not both");
-      std::string file = n.at("file").string();
-      fs::path p(file);
-      if (p.is_relative()) p = fs::path(base_dir) / p;
-      std::string err;
-      if (!load_obj_triangles(p.string(), &m.positions, &m.indices, &err)) n.at("file").fail(err);
-    } else {
-      n.require("positions");
-      n.require("indices");
-      Node pos = n.at("positions"), idx = n.at("indices");
-      if (!pos.j.is_array() || pos.j.empty()) pos.fail("expected a non-empty array of [x, y, z]");
-      if (!idx.j.is_array() || idx.j.empty()) idx.fail("expected a non-empty array of [i, j, k]");
-      for (size_t i = 0; i < pos.j.size(); ++i) m.positions.push_back(pos.at(i).vec3());
-      for (size_t i = 0; i < idx.j.size(); ++i) {
-        Node t = idx.at(i);
-        if (!t.j.is_array() || t.j.size() != 3) t.fail("expected an array of 3 vertex indices");
-        std::array<uint32_t, 3> tri;
-        for (int k = 0; k < 3; ++k) tri[k] = uint32_t(t.at(size_t(k)).integer(0, long(m.positions.size()) - 1));
-        m.indices.push_back(tri);
-      }
-    }
-    Vec3 scale(1.f), translate(0.f);
-    if (n.has("scale")) {
-      Node sc = n.at("scale");
-      scale = sc.j.is_number() ? Vec3(sc.positive(kMaxCoordinate)) : sc.vec3();
-      if (!(scale.x != 0.f && scale.y != 0.f && scale.z != 0.f)) sc.fail("scale factors must be non-zero");
-    }
-    if (n.has("translate")) translate = n.at("translate").vec3();
-    for (Vec3& p : m.positions) {
-      p = p * scale + translate;
-      if (!is_finite(p)) n.fail("vertex coordinates overflow after scale/translate");
-    }
-    m.material = mat();
-    s.meshes.push_back(std::move(m));
+  } else if (type == "quad" || type == "box" || type == "mesh") {
+    n.expect_object(geometry_keys(n, type, {"type", "material", "transform"}));
+    Affine t = xform();
+    uint32_t m = mat();
+    add_instance(s, add_mesh(s, parse_geometry(n, type, base_dir)), t, m, -1);
+  } else if (type == "instance") {
+    n.expect_object({"type", "mesh", "material", "transform"});
+    n.require("mesh");
+    Node mn = n.at("mesh");
+    std::string name = mn.string();
+    auto it = named.find(name);
+    if (it == named.end()) mn.fail("unknown mesh '" + name + "' (define it under \"meshes\")");
+    Affine t = xform();
+    add_instance(s, it->second, t, mat(), -1);
   } else {
-    n.at("type").fail("unknown shape type '" + type + "' (expected sphere, quad, box or mesh)");
+    n.at("type").fail("unknown shape type '" + type + "' (expected sphere, quad, box, mesh or instance)");
   }
 }
 
@@ -289,7 +365,7 @@ void parse_light(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
     Vec3 L = has_l ? n.at("radiance").color(kMaxEmission) : n.at("power").color(kMaxEmission) / (kPi * area);
     if (!is_finite(L)) n.fail("too small for the given power (radiance overflows)");
     s.lights.push_back(Light::quad(corner, e1, e2, L));
-    add_quad(s, n.path, corner, e1, e2, material, index);
+    add_instance(s, add_mesh(s, quad_mesh(n.path, corner, e1, e2)), Affine(), material, index);
   } else {
     n.at("type").fail("unknown light type '" + type + "' (expected sphere or quad)");
   }
@@ -313,7 +389,7 @@ Scene parse_scene(const json& doc, const std::string& source, const std::string&
   Scene s;
   s.source = source;
   Node root{doc, "", s.source};
-  root.expect_object({"camera", "render", "background", "materials", "shapes", "lights"});
+  root.expect_object({"camera", "render", "background", "materials", "meshes", "shapes", "lights"});
   root.require("camera");
   parse_camera(root.at("camera"), s);
   if (root.has("render")) parse_render(root.at("render"), s);
@@ -335,17 +411,19 @@ Scene parse_scene(const json& doc, const std::string& source, const std::string&
       s.material_names.push_back(it.key());
     }
   }
+  std::map<std::string, uint32_t> named;
+  if (root.has("meshes")) parse_named_meshes(root.at("meshes"), s, &named, base_dir);
   if (root.has("shapes")) {
     Node shapes = root.at("shapes");
     if (!shapes.j.is_array()) shapes.fail("expected an array");
-    for (size_t i = 0; i < shapes.j.size(); ++i) parse_shape(shapes.at(i), s, mats, base_dir);
+    for (size_t i = 0; i < shapes.j.size(); ++i) parse_shape(shapes.at(i), s, mats, named, base_dir);
   }
   if (root.has("lights")) {
     Node lights = root.at("lights");
     if (!lights.j.is_array()) lights.fail("expected an array");
     for (size_t i = 0; i < lights.j.size(); ++i) parse_light(lights.at(i), s, mats);
   }
-  if (s.spheres.empty() && s.meshes.empty()) root.fail("the scene has no shapes and no lights");
+  if (s.spheres.empty() && s.instances.empty()) root.fail("the scene has no shapes and no lights");
   return s;
 }
 
@@ -450,7 +528,7 @@ IntegratorSettings Scene::integrator() const {
 
 size_t Scene::triangle_count() const {
   size_t n = 0;
-  for (const auto& m : meshes) n += m.indices.size();
+  for (const auto& inst : instances) n += meshes[inst.mesh].indices.size();
   return n;
 }
 

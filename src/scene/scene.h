@@ -18,6 +18,7 @@
 #include "core/lights.h"
 #include "core/material.h"
 #include "core/strategy.h"
+#include "core/transform.h"
 
 namespace pn {
 
@@ -28,10 +29,19 @@ class SceneError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Triangle geometry in its own (object) space. Placed in the world by one or
+// more Instances: the GPU builds one GAS per mesh and an IAS over instances,
+// the CPU one Embree scene per mesh and Embree instances over them.
 struct TriangleMesh {
   std::string name;
   std::vector<Vec3> positions;
   std::vector<std::array<uint32_t, 3>> indices;
+};
+
+struct Instance {
+  uint32_t mesh = 0;
+  Affine to_world;    // object -> world
+  Affine to_object;   // its inverse (normals use its transpose)
   uint32_t material = 0;
   int32_t light = -1;  // >= 0 for the triangles of a quad light
 };
@@ -68,7 +78,8 @@ struct Scene {
   std::vector<Material> materials;
   std::vector<std::string> material_names;
   std::vector<Sphere> spheres;       // includes the surfaces of sphere lights
-  std::vector<TriangleMesh> meshes;  // includes quads, boxes and quad lights
+  std::vector<TriangleMesh> meshes;   // quads, boxes, quad lights, meshes, named meshes
+  std::vector<Instance> instances;    // every placement of a mesh in the world
   std::vector<Light> lights;
 
   SceneView view() const;

@@ -20,11 +20,10 @@
 namespace pn {
 namespace {
 
+// What a top-level Embree geometry ID stands for.
 struct GeomInfo {
   bool is_sphere_set = false;
-  const TriangleMesh* mesh = nullptr;  // triangles
-  uint32_t material = 0;
-  int32_t light = -1;
+  const Instance* instance = nullptr;  // an instance of one of the scene's meshes
 };
 
 // --- Sphere user geometry ------------------------------------------------------
@@ -74,9 +73,11 @@ class CpuBackend final : public Backend {
     threads_ = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
     device_ = rtcNewDevice("threads=1");  // Embree's own threads only build; we trace
     if (!device_) throw std::runtime_error("cannot create Embree device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
-    rtc_ = rtcNewScene(device_);
-    rtcSetSceneBuildQuality(rtc_, RTC_BUILD_QUALITY_HIGH);
+    // One Embree scene per mesh (its BVH built once) and one instance per
+    // placement: the same structure as the GPU's GAS-per-mesh plus IAS.
     for (const TriangleMesh& m : scene.meshes) {
+      RTCScene ms = rtcNewScene(device_);
+      rtcSetSceneBuildQuality(ms, RTC_BUILD_QUALITY_HIGH);
       RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
       auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                             3 * sizeof(float), m.positions.size()));
@@ -90,10 +91,22 @@ class CpuBackend final : public Backend {
       for (size_t i = 0; i < m.indices.size(); ++i)
         for (int k = 0; k < 3; ++k) idx[3 * i + k] = m.indices[i][k];
       rtcCommitGeometry(g);
+      rtcAttachGeometry(ms, g);
+      rtcReleaseGeometry(g);
+      rtcCommitScene(ms);
+      mesh_scenes_.push_back(ms);
+    }
+    rtc_ = rtcNewScene(device_);
+    rtcSetSceneBuildQuality(rtc_, RTC_BUILD_QUALITY_HIGH);
+    for (const Instance& inst : scene.instances) {
+      RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
+      rtcSetGeometryInstancedScene(g, mesh_scenes_[inst.mesh]);
+      rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, inst.to_world.m);
+      rtcCommitGeometry(g);
       unsigned id = rtcAttachGeometry(rtc_, g);
       rtcReleaseGeometry(g);
       geoms_.resize(id + 1);
-      geoms_[id] = GeomInfo{false, &m, m.material, m.light};
+      geoms_[id].instance = &inst;
     }
     if (!scene.spheres.empty()) {
       RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
@@ -115,6 +128,7 @@ class CpuBackend final : public Backend {
   }
   ~CpuBackend() override {
     rtcReleaseScene(rtc_);
+    for (RTCScene ms : mesh_scenes_) rtcReleaseScene(ms);
     rtcReleaseDevice(device_);
   }
 
@@ -144,18 +158,20 @@ class CpuBackend final : public Backend {
       rtcIntersect1(self->rtc_, &ctx, &rh);
       if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
       hit->t = rh.ray.tfar;
-      const GeomInfo& g = self->geoms_[rh.hit.geomID];
-      if (g.is_sphere_set) {
+      if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
+        const Instance& inst = *self->geoms_[rh.hit.instID[0]].instance;
+        const TriangleMesh& mesh = self->scene_.meshes[inst.mesh];
+        const auto& tri = mesh.indices[rh.hit.primID];
+        const auto& P = mesh.positions;
+        triangle_hit(P[tri[0]], P[tri[1]], P[tri[2]], rh.hit.u, rh.hit.v, &hit->p, &hit->n);
+        instance_to_world(inst.to_world, inst.to_object, &hit->p, &hit->n);
+        hit->material = inst.material;
+        hit->light = inst.light;
+      } else {
         const Sphere& s = self->scene_.spheres[rh.hit.primID];
         sphere_hit(s.center, s.radius, ray, hit->t, &hit->p, &hit->n);
         hit->material = s.material;
         hit->light = s.light;
-      } else {
-        const auto& tri = g.mesh->indices[rh.hit.primID];
-        const auto& P = g.mesh->positions;
-        triangle_hit(P[tri[0]], P[tri[1]], P[tri[2]], rh.hit.u, rh.hit.v, &hit->p, &hit->n);
-        hit->material = g.material;
-        hit->light = g.light;
       }
       return true;
     }
@@ -239,8 +255,9 @@ class CpuBackend final : public Backend {
   SceneView view_;
   int threads_ = 1;
   RTCDevice device_ = nullptr;
-  RTCScene rtc_ = nullptr;
-  std::vector<GeomInfo> geoms_;
+  RTCScene rtc_ = nullptr;              // top level: instances and the sphere set
+  std::vector<RTCScene> mesh_scenes_;  // one per TriangleMesh
+  std::vector<GeomInfo> geoms_;        // by top-level geometry ID
   unsigned sphere_geom_ = RTC_INVALID_GEOMETRY_ID;
 };
 
