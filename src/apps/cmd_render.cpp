@@ -1,6 +1,8 @@
 // `penumbra render`: one image, written as EXR (linear) or PNG (sRGB).
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,8 +22,9 @@ struct RenderArgs {
   std::string variance;
   std::string backend = "auto";
   std::string strategy;
-  int spp = 0, width = 0, height = 0, max_depth = -1, rr_depth = 0;
-  long long seed = -1;
+  // kUnset: not given on the command line, keep the scene's value.
+  static constexpr long long kUnset = std::numeric_limits<long long>::min();
+  long long spp = kUnset, width = kUnset, height = kUnset, max_depth = kUnset, rr_depth = kUnset, seed = kUnset;
   int threads = 0;
   float exposure = 0.f;
   bool stats = false;
@@ -32,20 +35,51 @@ std::string default_output(const std::string& scene) {
   return std::filesystem::path(scene).stem().string() + ".png";
 }
 
+// GPU backends: per-launch times from CUDA events, and rays per second.
+void print_launch_stats(const RenderStats& st, double pixels) {
+  if (st.launches.empty()) return;
+  std::vector<double> trace, acc;
+  double gpu_ms = 0, samples = 0;
+  for (const LaunchTiming& l : st.launches) {
+    trace.push_back(l.trace_ms);
+    acc.push_back(l.accumulate_ms);
+    gpu_ms += double(l.trace_ms) + l.accumulate_ms;
+    samples += pixels * l.spp;
+  }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  };
+  std::fprintf(stderr,
+               "stats: %zu GPU launches of %u spp: median %.3f ms path tracing + %.3f ms accumulation per launch; "
+               "%.3f ms GPU total, %.2f Msamples/s",
+               st.launches.size(), st.launches.front().spp, median(trace), median(acc), gpu_ms,
+               gpu_ms > 0 ? samples / (gpu_ms * 1e3) : 0.0);
+  if (st.rays && gpu_ms > 0)
+    std::fprintf(stderr, ", %.3g rays (%.2f Grays/s)", double(st.rays), double(st.rays) / (gpu_ms * 1e6));
+  std::fprintf(stderr, "\n");
+}
+
 int run_render(const RenderArgs& a) {
   // Command-line settings are overrides like any --set, validated in one place.
   std::vector<std::string> overrides = a.sets;
   auto set = [&](const char* key, const std::string& v) { overrides.push_back(std::string(key) + "=" + v); };
   if (!a.strategy.empty()) set("render.strategy", "\"" + a.strategy + "\"");
-  if (a.spp) set("render.spp", std::to_string(a.spp));
-  if (a.width) set("render.width", std::to_string(a.width));
-  if (a.height) set("render.height", std::to_string(a.height));
-  if (a.max_depth >= 0) set("render.max_depth", std::to_string(a.max_depth));
-  if (a.rr_depth) set("render.rr_depth", std::to_string(a.rr_depth));
-  if (a.seed >= 0) set("render.seed", std::to_string(a.seed));
+  auto set_int = [&](const char* key, long long v) {
+    if (v != RenderArgs::kUnset) set(key, std::to_string(v));
+  };
+  set_int("render.spp", a.spp);
+  set_int("render.width", a.width);
+  set_int("render.height", a.height);
+  set_int("render.max_depth", a.max_depth);
+  set_int("render.rr_depth", a.rr_depth);
+  set_int("render.seed", a.seed);
   Scene scene = load_scene(a.scene, overrides);
 
   std::string out = a.output.empty() ? default_output(a.scene) : a.output;
+  check_image_path(out);  // fail before a long render, not after
+  if (!a.variance.empty()) check_image_path(a.variance);
   BackendOptions opts;
   opts.threads = a.threads;
   std::string note;
@@ -70,6 +104,7 @@ int run_render(const RenderArgs& a) {
   if (a.stats) {
     std::fprintf(stderr, "stats: %zu triangles, %zu spheres, %zu lights, %.3f ms per spp\n", scene.triangle_count(),
                  scene.spheres.size(), scene.lights.size(), seconds * 1e3 / r.spp);
+    print_launch_stats(backend->last_render_stats(), double(r.width) * r.height);
   }
   return 0;
 }

@@ -10,9 +10,15 @@ int main(int argc, char** argv) {
       "strategies for area lights: uniform area sampling versus uniform solid-angle (cone) sampling."};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Help for every subcommand");
+  // Errors are one line, like every other error penumbra reports.
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return "penumbra: error: " + std::string(e.what()) + " (see --help)\n";
+  });
   const pn::Command commands[] = {
       pn::add_render_command(app),
       pn::add_scenes_command(app),
+      pn::add_compare_command(app),
+      pn::add_bench_command(app),
   };
   try {
     app.parse(argc, argv);

@@ -19,6 +19,12 @@ std::string extension(const std::string& path) {
 }
 }  // namespace
 
+void check_image_path(const std::string& path) {
+  std::string ext = extension(path);
+  if (ext != "exr" && ext != "png")
+    throw std::runtime_error(path + ": unknown image format '." + ext + "' (use .exr or .png)");
+}
+
 unsigned char to_srgb8(float v) {
   if (!(v > 0.f)) return 0;  // also maps NaN to 0
   float s = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;

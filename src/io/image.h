@@ -13,6 +13,9 @@ namespace pn {
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb,
                  float exposure_stops = 0.f);
 
+// Throws the same one-line error write_image would for an unsupported extension.
+void check_image_path(const std::string& path);
+
 // Reads a linear float RGB EXR written by write_image (or any RGB(A) EXR).
 std::vector<float> read_exr(const std::string& path, int* width, int* height);
 

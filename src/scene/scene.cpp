@@ -483,9 +483,10 @@ json load_scene_json(const std::string& name_or_path, const std::vector<std::str
     buf << in.rdbuf();
     try {
       doc = json::parse(buf.str());
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // syntax errors, number overflow
       std::string what = e.what();
-      auto pos = what.find("parse error");
+      auto pos = what.find("] ");
+      if (pos != std::string::npos) pos += 2;
       throw SceneError(name_or_path + ": invalid JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
     }
   }

@@ -1,0 +1,57 @@
+#include "render/compare.h"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace pn {
+
+CompareResult compare_images(const std::vector<float>& a, const std::vector<float>& va,
+                             const std::vector<float>& b, const std::vector<float>& vb,
+                             const CompareOptions& o) {
+  if (a.size() != b.size() || a.size() != va.size() || b.size() != vb.size() || a.empty())
+    throw std::runtime_error("compare: images differ in size");
+  CompareResult r;
+  double sa = 0, sb = 0, sva = 0, svb = 0, z2 = 0;
+  size_t with_var = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    sa += a[i];
+    sb += b[i];
+    sva += va[i];
+    svb += vb[i];
+    double v = double(va[i]) + vb[i];
+    double d = double(a[i]) - b[i];
+    if (v > 0) {
+      double z = d / std::sqrt(v);
+      z2 += z * z;
+      ++with_var;
+      r.max_abs_z = std::max(r.max_abs_z, std::fabs(z));
+      if (std::fabs(z) > o.outlier_z) ++r.outliers;
+    } else if (std::fabs(d) > o.exact_rel_tol * std::max(std::fabs(double(a[i])), std::fabs(double(b[i])))) {
+      ++r.zero_var_mismatches;
+    }
+  }
+  double n = double(a.size());
+  r.channels = a.size();
+  r.mean_a = sa / n;
+  r.mean_b = sb / n;
+  r.mean_rel_diff = r.mean_b != 0 ? std::fabs(r.mean_a - r.mean_b) / std::fabs(r.mean_b) : std::fabs(r.mean_a);
+  double var_means = (sva + svb) / (n * n);
+  r.image_z = var_means > 0 ? (r.mean_a - r.mean_b) / std::sqrt(var_means) : 0.0;
+  r.mean_z2 = with_var ? z2 / double(with_var) : 0.0;
+  r.pass = r.mean_rel_diff < o.max_mean_rel_diff && std::fabs(r.image_z) < o.max_image_z &&
+           double(r.outliers) <= o.max_outlier_fraction * double(r.channels) && r.zero_var_mismatches == 0;
+  return r;
+}
+
+std::string CompareResult::summary() const {
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "%s: means %.6g vs %.6g (rel. diff %.3f%%), image z %.2f, mean z^2 %.3f, max |z| %.2f, "
+                "%zu/%zu channels beyond 5 sigma, %zu zero-variance mismatches",
+                pass ? "PASS" : "FAIL", mean_a, mean_b, 100 * mean_rel_diff, image_z, mean_z2, max_abs_z, outliers,
+                channels, zero_var_mismatches);
+  return buf;
+}
+
+}  // namespace pn
