@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs what penumbra builds with, from Debian's packages (idempotent).
+# Used by the README's two commands and by CI (.ci/run).
+set -euo pipefail
+packages=(
+  cmake ninja-build g++ pkg-config
+  libembree-dev          # Embree 3: CPU ray traversal
+  nlohmann-json3-dev     # scene files
+  libcli11-dev           # command line
+  libstb-dev             # PNG output
+  libtinyexr-dev         # EXR output
+  libtinyobjloader-dev   # OBJ meshes
+  libgtest-dev           # tests
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  echo "install-deps: installing ${missing[*]}" >&2
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+if command -v nvidia-smi >/dev/null 2>&1 && [ -z "${OptiX_ROOT:-}" ]; then
+  echo "install-deps: an NVIDIA GPU is present but OptiX_ROOT is not set: the build will be CPU-only." >&2
+  echo "  Set OptiX_ROOT to an OptiX SDK folder holding include/optix.h (OptiX 9.0 for driver 580) to build the GPU backend." >&2
+fi
