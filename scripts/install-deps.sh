@@ -3,7 +3,7 @@
 # Used by the README's two commands and by CI (.ci/run).
 set -euo pipefail
 packages=(
-  cmake ninja-build g++ pkg-config
+  cmake ninja-build g++ pkg-config python3 python3-pip
   libembree-dev          # Embree 3: CPU ray traversal
   nlohmann-json3-dev     # scene files
   libcli11-dev           # command line
@@ -22,6 +22,11 @@ if [ ${#missing[@]} -gt 0 ]; then
   echo "install-deps: installing ${missing[*]}" >&2
   $sudo apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+# Python for the experiment reports (scripts/study.py), from PyPI.
+if ! python3 -c "import numpy, matplotlib" >/dev/null 2>&1; then
+  echo "install-deps: installing numpy and matplotlib from PyPI" >&2
+  python3 -m pip install -q numpy matplotlib || python3 -m pip install -q --break-system-packages numpy matplotlib
 fi
 if command -v nvidia-smi >/dev/null 2>&1 && [ -z "${OptiX_ROOT:-}" ]; then
   echo "install-deps: an NVIDIA GPU is present but OptiX_ROOT is not set: the build will be CPU-only." >&2

@@ -16,6 +16,7 @@ struct Command {
 Command add_render_command(CLI::App& app);
 Command add_scenes_command(CLI::App& app);
 Command add_compare_command(CLI::App& app);
+Command add_converge_command(CLI::App& app);
 Command add_bench_command(CLI::App& app);
 
 }  // namespace pn

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
       pn::add_render_command(app),
       pn::add_scenes_command(app),
       pn::add_compare_command(app),
+      pn::add_converge_command(app),
       pn::add_bench_command(app),
   };
   try {
