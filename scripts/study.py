@@ -21,9 +21,12 @@ import sys
 
 import numpy as np
 
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+try:  # only the report needs matplotlib (--no-report runs without it)
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+except ImportError:
+    plt = None
 
 STRATEGIES = ["area", "solid-angle"]
 COLORS = {"area": "#d62728", "solid-angle": "#1f77b4"}
@@ -59,8 +62,9 @@ def converge(args, name, scene, cfg, sets=()):
         cmd += ["--cache", args.cache]
     for s in sets:
         cmd += ["--set", s]
-    log("study: " + " ".join(cmd))
-    subprocess.run(cmd, check=True)
+    if not args.report_only:
+        log("study: " + " ".join(cmd))
+        subprocess.run(cmd, check=True)
     with open(os.path.join(out, "summary.json")) as f:
         summary = json.load(f)
     summary["run_dir"] = out
@@ -342,10 +346,17 @@ def main():
     ap.add_argument("--cache", help="ground-truth cache folder (default: penumbra's)")
     ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
     ap.add_argument("--check", action="store_true", help="assert slopes and the near-light win (CI smoke test)")
-    ap.add_argument("--keep-runs", action="store_true", help="keep the per-run folders (npy crops, PNG images)")
+    ap.add_argument("--keep-runs", action="store_true", help="keep the crops (.npy) the figures are drawn from")
+    ap.add_argument("--report-only", action="store_true",
+                    help="draw the report from the runs already in --out (e.g. made on a GPU machine without matplotlib)")
+    ap.add_argument("--no-report", action="store_true", help="run the experiments only (implies --keep-runs)")
     args = ap.parse_args()
-    if not os.path.exists(args.penumbra):
+    if args.no_report:
+        args.keep_runs = True
+    if not args.report_only and not os.path.exists(args.penumbra):
         sys.exit(f"study: {args.penumbra}: no such executable (build first, or pass --penumbra)")
+    if plt is None and not args.no_report:
+        sys.exit("study: matplotlib is missing (python3 -m pip install matplotlib), or use --no-report")
     preset = PRESETS[args.preset]
     os.makedirs(args.out, exist_ok=True)
     head = [converge(args, s, s, preset["headline"]) for s in HEADLINE] if args.only != "sweeps" else []
@@ -361,7 +372,7 @@ def main():
             slat_runs.append(converge(args, f"slats-{wd}", "occlusion", sw,
                                       [f"meshes.slat-x.size=[{wd},0.04,{BOX[2]}]",
                                        f"meshes.slat-z.size=[{BOX[0]},0.04,{wd}]"]))
-    if head and radius_runs:
+    if head and radius_runs and not args.no_report:
         write_report(args, preset, head, radius_runs, near_runs, slat_runs, preset["radii"], preset["near_k"],
                      preset["slat_widths"])
         log(f"study: wrote {os.path.join(args.out, 'README.md')}")
