@@ -11,6 +11,12 @@ packages=(
   libtinyexr-dev         # EXR output
   libtinyobjloader-dev   # OBJ meshes
   libgtest-dev           # tests
+  libglfw3-dev           # viewer: window and OpenGL context (penumbra view)
+  libgl-dev              # viewer: OpenGL headers (GL/glcorearb.h)
+  libimgui-dev           # viewer: Dear ImGui, with its GLFW and OpenGL 3 backends
+  xvfb xauth             # viewer test: a virtual X server (xvfb-run)
+  libgl1-mesa-dri        # viewer test: Mesa's software OpenGL (llvmpipe) under Xvfb
+  libglx-mesa0           # viewer test: Mesa's GLX, for that OpenGL on an X server
 )
 missing=()
 for p in "${packages[@]}"; do

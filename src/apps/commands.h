@@ -18,5 +18,6 @@ Command add_scenes_command(CLI::App& app);
 Command add_compare_command(CLI::App& app);
 Command add_converge_command(CLI::App& app);
 Command add_bench_command(CLI::App& app);
+Command add_view_command(CLI::App& app);  // apps/viewer/cmd_view.cpp
 
 }  // namespace pn

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
       pn::add_compare_command(app),
       pn::add_converge_command(app),
       pn::add_bench_command(app),
+      pn::add_view_command(app),
   };
   try {
     app.parse(argc, argv);

@@ -1,0 +1,32 @@
+// `penumbra view --camera-path FILE`: a scripted sequence of camera moves and
+// control changes, for tests, demos and reproducible screenshots. The format is
+// in docs/viewer.md: a JSON list of {"frame": N, "<action>": value, ...}.
+//
+// Everything is validated when the file is read, so a typo fails at once with
+// one line naming the file and the entry, never 500 frames into a run.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace pn::viewer {
+
+struct PathAction {
+  uint64_t frame = 0;     // applied after this many frames have been rendered
+  std::string key;        // "orbit", "strategy", "screenshot", ...
+  nlohmann::json value;   // validated for `key`
+  std::string where;      // "path.json: [3].orbit", for messages
+};
+
+// The actions in the order they run: by frame, and within a frame in the
+// order they appear in the file (entries, then keys within an entry).
+std::vector<PathAction> load_camera_path(const std::string& path);
+std::vector<PathAction> parse_camera_path(const std::string& text, const std::string& source);
+
+// The action names the format knows, for documentation and messages.
+const std::vector<std::string>& camera_path_keys();
+
+}  // namespace pn::viewer

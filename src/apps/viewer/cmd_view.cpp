@@ -1,0 +1,79 @@
+// `penumbra view`: registered in every build, so that a penumbra built without
+// GLFW/OpenGL/Dear ImGui says so in one line instead of "unknown subcommand".
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "apps/commands.h"
+#include "apps/viewer/viewer.h"
+#include "scene/scene.h"
+
+namespace pn {
+namespace {
+
+struct ViewArgs {
+  viewer::ViewerOptions o;
+  std::string strategy;
+  static constexpr long long kUnset = std::numeric_limits<long long>::min();
+  long long max_depth = kUnset, seed = kUnset;
+};
+
+int run_view(ViewArgs a) {
+  // Like `render`, command-line settings are scene overrides, validated with the scene.
+  if (!a.strategy.empty()) a.o.sets.push_back("render.strategy=\"" + a.strategy + "\"");
+  if (a.max_depth != ViewArgs::kUnset) a.o.sets.push_back("render.max_depth=" + std::to_string(a.max_depth));
+  if (a.seed != ViewArgs::kUnset) a.o.sets.push_back("render.seed=" + std::to_string(a.seed));
+#if PENUMBRA_HAVE_VIEWER
+  return viewer::run_viewer(a.o);
+#else
+  throw std::runtime_error(
+      "this penumbra was built without the viewer (GLFW 3, OpenGL and Dear ImGui were not found when it was "
+      "configured: run scripts/install-deps.sh and reconfigure); use `penumbra render` to render to a file");
+#endif
+}
+
+}  // namespace
+
+Command add_view_command(CLI::App& app) {
+  auto a = std::make_shared<ViewArgs>();
+  auto* sub = app.add_subcommand(
+      "view", "Interactive viewer: navigate a scene, watch the strategies converge, split-screen comparison");
+  sub->add_option("scene", a->o.scene, "Built-in scene name (see `penumbra scenes`) or a scene file (.json)")
+      ->required();
+  sub->add_option("--backend", a->o.backend, "cpu, optix, or auto: optix when a GPU and OptiX work, else cpu")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"cpu", "optix", "auto"}));
+  sub->add_option("--set", a->o.sets, "Override any scene value, e.g. --set light.radius=0.05 (repeatable)")
+      ->take_all()
+      ->allow_extra_args(false);
+  sub->add_option("--width", a->o.width, "Window width (default: the scene's, fitted to 1280x720)")
+      ->check(CLI::Range(16, 16384));
+  sub->add_option("--height", a->o.height, "Window height (default: the scene's, fitted to 1280x720)")
+      ->check(CLI::Range(16, 16384));
+  sub->add_option("--scale", a->o.scale,
+                  "Resolution scale: image pixels per window pixel (default 1; on the CPU at most ~640x360 pixels)")
+      ->check(CLI::Range(0.05f, 4.f));
+  sub->add_option("--strategy", a->strategy, "Direct-lighting strategy: " + strategy_names() + " (default: the scene's)");
+  sub->add_option("--spp-per-frame", a->o.spp_per_frame, "Samples per pixel added each frame")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces (default: the scene's)");
+  sub->add_option("--seed", a->seed, "Random seed, 0..4294967295 (default: the scene's)");
+  sub->add_option("--exposure", a->o.exposure, "Display exposure in stops")
+      ->capture_default_str()
+      ->check(CLI::Range(-64.f, 64.f));
+  sub->add_option("--threads", a->o.threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  sub->add_option("--split", a->o.split, "Start in split screen: LEFT,RIGHT strategies, e.g. area,solid-angle");
+  sub->add_flag("--equal-time", a->o.equal_time, "Split screen at equal time instead of equal samples per pixel");
+  sub->add_flag("--hide-panel", a->o.hide_panel, "Start with the control panel hidden (Tab shows it)");
+  sub->add_option("--frames", a->o.frames, "Render this many frames, print the frame rate, and exit")
+      ->check(CLI::Range(1, 100000000));
+  sub->add_option("--screenshot", a->o.screenshot,
+                  "Image (.png or .exr) written after --frames frames, or when the window is closed");
+  sub->add_option("--camera-path", a->o.camera_path,
+                  "Replay a JSON list of timed actions (camera moves, settings, screenshots): docs/viewer.md");
+  return {sub, [a]() { return run_view(*a); }};
+}
+
+}  // namespace pn

@@ -1,0 +1,31 @@
+// `penumbra view`: the interactive viewer (docs/viewer.md).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace pn::viewer {
+
+struct ViewerOptions {
+  std::string scene;                // built-in name or scene file
+  std::string backend = "auto";     // cpu, optix, auto
+  std::vector<std::string> sets;    // scene overrides (--set and the strategy/depth/seed options)
+  int width = 0, height = 0;        // window size; 0 = from the scene's resolution
+  float scale = 0.f;                // resolution scale; 0 = automatic
+  int frames = 0;                   // > 0: render this many frames, then exit
+  std::string screenshot;           // written after --frames frames (or on exit)
+  std::string camera_path;          // scripted actions (camera_path.h)
+  int spp_per_frame = 1;
+  float exposure = 0.f;
+  int threads = 0;                  // CPU backend threads; 0 = all
+  std::string split;                // "LEFT,RIGHT": start in split-screen mode
+  bool equal_time = false;
+  bool hide_panel = false;
+};
+
+// Opens the window and runs until it is closed or the automation ends.
+// Returns the exit status; throws std::runtime_error (one line) on failure,
+// including "no display" and "no OpenGL 3.3", which point to `penumbra render`.
+int run_viewer(const ViewerOptions& options);
+
+}  // namespace pn::viewer

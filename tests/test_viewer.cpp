@@ -1,0 +1,244 @@
+// The viewer's windowless parts (src/apps/viewer): camera control, camera files,
+// camera paths, progressive images and their tone-mapping. The
+// window itself is tested under Xvfb by viewer_smoke.py.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "apps/viewer/camera_control.h"
+#include "apps/viewer/camera_path.h"
+#include "apps/viewer/progressive.h"
+#include "io/image.h"
+#include "render/backend.h"
+#include "scene/scene.h"
+
+namespace pn::viewer {
+namespace {
+
+using json = nlohmann::json;
+
+CameraDesc cornell_camera() { return load_scene("cornell-sphere").camera; }
+
+void expect_near(Vec3 a, Vec3 b, float tol = 1e-4f) {
+  EXPECT_NEAR(a.x, b.x, tol);
+  EXPECT_NEAR(a.y, b.y, tol);
+  EXPECT_NEAR(a.z, b.z, tol);
+}
+
+TEST(CameraControl, UntouchedIsTheScenesCameraBitForBit) {
+  CameraDesc home = cornell_camera();
+  CameraControl c(home);
+  EXPECT_EQ(std::memcmp(&c.desc(), &home, sizeof home), 0);
+  c.orbit(10, 5);
+  c.reset();
+  EXPECT_EQ(std::memcmp(&c.desc(), &home, sizeof home), 0);
+}
+
+TEST(CameraControl, OrbitKeepsTargetAndDistanceAndMovesTheEyeRight) {
+  CameraControl c(cornell_camera());
+  const Vec3 target = c.desc().target, eye = c.desc().eye, right = c.right();
+  const float d = c.distance();
+  c.orbit(20, 0);
+  expect_near(c.desc().target, target, 0.f);
+  EXPECT_NEAR(c.distance(), d, 1e-4f * d);
+  EXPECT_GT(dot(c.desc().eye - eye, right), 0.f) << "positive yaw moves the eye to the camera's right";
+  c.orbit(0, 30);
+  EXPECT_GT(c.desc().eye.y, eye.y) << "positive pitch moves the eye up";
+  // Elevation is clamped short of the pole, so the look-at frame stays valid.
+  c.orbit(0, 500);
+  float elevation = std::asin(dot(normalize(c.desc().eye - target), c.up())) * 180.f / kPi;
+  EXPECT_NEAR(elevation, 89.f, 1e-2f);
+  EXPECT_NO_THROW(Camera::look_at(c.desc().eye, c.desc().target, c.desc().up, c.desc().fov, 16, 9));
+}
+
+TEST(CameraControl, LookTurnsAboutTheEye) {
+  CameraControl c(cornell_camera());
+  const Vec3 eye = c.desc().eye, right = c.right(), fwd = c.forward();
+  c.look(15, 0);
+  expect_near(c.desc().eye, eye, 0.f);
+  EXPECT_GT(dot(c.forward(), right), 0.f) << "positive yaw looks right";
+  EXPECT_NEAR(dot(c.forward(), fwd), std::cos(15.f * kPi / 180.f), 1e-5f);
+  c.look(0, 10);
+  EXPECT_GT(dot(c.forward(), c.up()), 0.f) << "positive pitch looks up";
+}
+
+TEST(CameraControl, PanFollowsTheCursorByViewHeights) {
+  CameraControl c(cornell_camera());
+  const CameraDesc before = c.desc();
+  const float view_height = 2.f * c.distance() * std::tan(0.5f * before.fov * kPi / 180.f);
+  c.pan(0.5f, 0.f);  // drag right by half the window height: the camera moves left
+  expect_near(c.desc().target - before.target, c.right() * (-0.5f * view_height));
+  expect_near(c.desc().eye - before.eye, c.desc().target - before.target);
+  c.set(before);
+  c.pan(0.f, 1.f);  // drag down: the camera moves up
+  EXPECT_NEAR(c.desc().target.y - before.target.y, view_height, 1e-4f);
+}
+
+TEST(CameraControl, DollyAndMove) {
+  CameraControl c(cornell_camera());
+  const CameraDesc before = c.desc();
+  const float d = c.distance();
+  c.dolly(0.5f);
+  EXPECT_NEAR(c.distance(), 0.5f * d, 1e-4f);
+  expect_near(c.desc().target, before.target, 0.f);
+  c.dolly(0.f);  // ignored
+  c.dolly(1e-9f);  // never reaches the target
+  EXPECT_GT(c.distance(), 0.f);
+  c.set(before);
+  c.move(1.f, 2.f, 3.f);
+  expect_near(c.desc().eye - before.eye, c.right() * 1.f + c.up() * 2.f + c.forward() * 3.f);
+  EXPECT_NEAR(c.distance(), d, 1e-4f);
+}
+
+TEST(CameraFile, ShortestNumbersReadBackExactly) {
+  for (float v : {2.78f, -8.f, 39.3f, 0.1f, 1e-7f, 3.14159274f, 123456.789f}) {
+    json j = shortest_number(v);
+    EXPECT_EQ(float(j.get<double>()), v) << j.dump();
+  }
+  EXPECT_EQ(shortest_number(2.78f).dump(), "2.78");
+}
+
+class TempDir : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = std::filesystem::temp_directory_path() /
+          ("penumbra_viewer_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(dir);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir); }
+  std::filesystem::path dir;
+};
+
+using CameraSave = TempDir;
+
+TEST_F(CameraSave, NewFileIsTheWholeSceneWithThisCamera) {
+  CameraControl c(cornell_camera());
+  c.orbit(12.5f, -7.f);
+  c.set_fov(50.f);
+  std::string path = (dir / "saved.json").string();
+  save_camera(path, c.desc(), find_builtin("cornell-sphere")->make());
+  Scene s = load_scene(path);  // a complete, valid scene
+  EXPECT_EQ(std::memcmp(&s.camera, &c.desc(), sizeof(CameraDesc)), 0) << "the camera reads back exactly";
+  EXPECT_EQ(s.lights.size(), 1u);
+  CameraDesc loaded = load_camera(path);
+  EXPECT_EQ(std::memcmp(&loaded, &c.desc(), sizeof(CameraDesc)), 0);
+}
+
+TEST_F(CameraSave, ExistingFileKeepsEverythingButTheCamera) {
+  std::string path = (dir / "scene.json").string();
+  json doc = find_builtin("cornell-near")->make();
+  doc["render"]["spp"] = 3;
+  std::ofstream(path) << doc.dump();
+  CameraControl c(load_scene(path).camera);
+  c.dolly(0.5f);
+  save_camera(path, c.desc(), json::object());
+  Scene s = load_scene(path);
+  EXPECT_EQ(s.render.spp, 3);
+  EXPECT_EQ(std::memcmp(&s.camera, &c.desc(), sizeof(CameraDesc)), 0);
+  std::ofstream(dir / "not_a_scene.json") << "[1, 2]";
+  EXPECT_THROW(save_camera((dir / "not_a_scene.json").string(), c.desc(), doc), std::runtime_error);
+}
+
+TEST(CameraPath, ParsesInFrameThenFileOrder) {
+  auto a = parse_camera_path(R"([
+    {"frame": 20, "screenshot": "b.png", "strategy": "area"},
+    {"frame": 10, "orbit": [1, 2], "dolly": 0.5},
+    {"frame": 20, "quit": true}
+  ])", "p.json");
+  ASSERT_EQ(a.size(), 5u);
+  EXPECT_EQ(a[0].key, "orbit");
+  EXPECT_EQ(a[1].key, "dolly");
+  EXPECT_EQ(a[2].key, "screenshot");
+  EXPECT_EQ(a[3].key, "strategy");
+  EXPECT_EQ(a[4].key, "quit");
+  EXPECT_EQ(a[0].frame, 10u);
+  EXPECT_EQ(a[2].where, "p.json: [0].screenshot");
+}
+
+TEST(CameraPath, BadInputIsOneLineNamingTheEntry) {
+  auto error = [](const std::string& text) {
+    try {
+      parse_camera_path(text, "p.json");
+    } catch (const SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error("{}"), "p.json: must be a JSON list of actions [{\"frame\": N, ...}, ...]");
+  EXPECT_EQ(error("[{\"orbit\": [1, 2]}]"), "p.json: [0]: has no \"frame\"");
+  EXPECT_EQ(error("[{\"frame\": -1, \"reset\": true}]"), "p.json: [0].frame: must be an integer >= 0 (got -1)");
+  EXPECT_EQ(error("[{\"frame\": 1}]"), "p.json: [0]: has no action besides \"frame\"");
+  EXPECT_NE(error("[{\"frame\": 1, \"orbitt\": [1, 2]}]").find("p.json: [0]: unknown action 'orbitt' (known: "),
+            std::string::npos);
+  EXPECT_EQ(error("[{\"frame\": 1, \"orbit\": [1]}]"), "p.json: [0].orbit: must be an array of 2 numbers (got [1])");
+  EXPECT_EQ(error("[{\"frame\": 1, \"dolly\": 0}]"), "p.json: [0].dolly: must be > 0 and <= 100 (got 0)");
+  EXPECT_NE(error("[{\"frame\": 1, \"strategy\": \"cone\"}]").find("p.json: [0].strategy"), std::string::npos);
+  EXPECT_NE(error("[{\"frame\": 1, \"screenshot\": \"x.jpg\"}]").find("p.json: [0].screenshot: x.jpg: unknown image format"),
+            std::string::npos);
+  EXPECT_NE(error("[{\"frame\": 1, \"camera\": {\"eye\": [0, 0, 0], \"target\": [0, 0, 0]}}]")
+                .find("p.json: [0].camera: camera.target: must differ from camera.eye"),
+            std::string::npos);
+  EXPECT_EQ(error("[{\"frame\": 1, \"spp_per_frame\": 1.5}]"),
+            "p.json: [0].spp_per_frame: must be an integer in 1..4096 (got 1.5)");
+  EXPECT_EQ(error("[{\"frame\": 0, \"screenshot\": \"a.png\"}]"),
+            "p.json: [0].screenshot: needs a frame >= 1: there is no image before the first frame");
+  EXPECT_EQ(error("[1, 2"), "p.json: invalid JSON");
+}
+
+TEST(Display, FastSrgbIsExactlyThePngEncoding) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.f, 1.2f);
+  for (int i = 0; i < 200000; ++i) {
+    float v = i < 1000 ? float(i) / 999.f : u(rng);
+    ASSERT_EQ(srgb8_fast(v), to_srgb8(v)) << v;
+    ASSERT_EQ(srgb8_fast(v * 1e-3f), to_srgb8(v * 1e-3f)) << v * 1e-3f;
+  }
+  for (int k = 0; k < 256; ++k) {  // around every step of the encoding
+    float x = (float(k) + 0.5f) / 255.f;
+    float lin = x <= 0.04045f ? x / 12.92f : std::pow((x + 0.055f) / 1.055f, 2.4f);
+    for (float v = std::nextafter(lin, 0.f), n = 0; n < 4; ++n, v = std::nextafter(v, 2.f))
+      ASSERT_EQ(srgb8_fast(v), to_srgb8(v)) << v;
+  }
+  EXPECT_EQ(srgb8_fast(-1.f), 0);
+  EXPECT_EQ(srgb8_fast(std::nanf("")), 0);
+  EXPECT_EQ(srgb8_fast(1e30f), 255);
+}
+
+TEST(Display, ProgressiveFramesAreTheRendersImageAndItsPngBytes) {
+  Scene s = load_scene("cornell-sphere", {"render.width=24", "render.height=16", "render.spp=4", "render.max_depth=3"});
+  std::string note;
+  auto backend = make_backend("cpu", s, BackendOptions{2}, &note);
+  Film one_go(24, 16);
+  backend->render(frame_spec(s), one_go, 0, 4);
+
+  auto image = make_host_image(*backend);
+  image->restart(frame_spec(s));
+  for (uint32_t spp : {1u, 1u, 2u}) image->add_samples(spp);
+  ASSERT_EQ(image->samples(), 4u);
+  EXPECT_EQ(image->mean(), one_go.mean()) << "frames of 1+1+2 spp are the 4-spp render";
+
+  // Columns 10..19 tone-mapped, as one side of a split screen: exactly the PNG's bytes there, nothing elsewhere.
+  const float exposure = 1.5f;
+  std::vector<unsigned char> rgba(24 * 16 * 4, 7);
+  DisplayPixels px{rgba.data(), 24 * 4, 24, 16, false};
+  image->tone_map(px, 10, 20, exposure);
+  std::vector<float> mean = image->mean();
+  const float gain = std::exp2(exposure);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 24; ++x)
+      for (int c = 0; c < 4; ++c) {
+        unsigned char got = rgba[(size_t(y) * 24 + x) * 4 + c];
+        if (x < 10 || x >= 20) ASSERT_EQ(got, 7) << "outside its columns";
+        else if (c == 3) ASSERT_EQ(got, 255);
+        else ASSERT_EQ(got, to_srgb8(mean[(size_t(y) * 24 + x) * 3 + c] * gain)) << x << "," << y;
+      }
+}
+
+}  // namespace
+}  // namespace pn::viewer
