@@ -140,13 +140,16 @@ int run_converge(const ConvergeArgs& a) {
   std::ostringstream key;
   key << std::hex << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + strategy_name(ref_strategy));
   std::string ref_path = cache + "/ref-" + key.str() + ".exr";
-  std::vector<float> ref;
+  std::string ref_var_path = cache + "/ref-" + key.str() + "_var.exr";
+  std::vector<float> ref, ref_var;
   double ref_seconds = 0;
-  bool cached = fs::exists(ref_path);
+  bool cached = fs::exists(ref_path) && fs::exists(ref_var_path);
   if (cached) {
-    int w, h;
+    int w, h, wv, hv;
     ref = read_exr(ref_path, &w, &h);
-    if (w != W || h != H) throw std::runtime_error(ref_path + ": cached reference has the wrong size");
+    ref_var = read_exr(ref_var_path, &wv, &hv);
+    if (w != W || h != H || wv != W || hv != H)
+      throw std::runtime_error(ref_path + ": cached reference has the wrong size");
     std::fprintf(stderr, "reference: %s (cached)\n", ref_path.c_str());
   } else {
     FrameSpec f = frame_spec(scene);
@@ -163,8 +166,10 @@ int run_converge(const ConvergeArgs& a) {
     }
     ref_seconds = bar.finish();
     ref = film.mean();
+    ref_var = film.variance_of_mean();
+    write_image(ref_var_path, W, H, ref_var);
     write_image(ref_path + ".tmp.exr", W, H, ref);
-    fs::rename(ref_path + ".tmp.exr", ref_path);
+    fs::rename(ref_path + ".tmp.exr", ref_path);  // last: a reference exists only when complete
     std::fprintf(stderr, "reference: %s (%d spp, %s)\n", ref_path.c_str(), a.reference_spp,
                  format_duration(ref_seconds).c_str());
   }
@@ -186,6 +191,22 @@ int run_converge(const ConvergeArgs& a) {
   }
   size_t light_pixels = std::count(mask.begin(), mask.end(), 0);
 
+  // The reference is itself noisy: its expected squared error, the mean of its
+  // per-pixel variance, is added to every measured MSE. Reported so that the
+  // reader can tell where measured errors reach that floor.
+  double floor_all = 0, floor_nolight = 0;
+  size_t n_nolight = 0;
+  for (size_t p = 0; p < mask.size(); ++p) {
+    double v = (double(ref_var[3 * p]) + ref_var[3 * p + 1] + ref_var[3 * p + 2]) / 3;
+    floor_all += v;
+    if (mask[p]) {
+      floor_nolight += v;
+      ++n_nolight;
+    }
+  }
+  floor_all = std::sqrt(floor_all / double(mask.size()));
+  floor_nolight = n_nolight ? std::sqrt(floor_nolight / double(n_nolight)) : 0.0;
+
   // --- Convergence runs ------------------------------------------------------------
   std::vector<int> spps;
   for (int s = 1; s <= a.max_spp; s *= 2) spps.push_back(s);
@@ -199,7 +220,8 @@ int run_converge(const ConvergeArgs& a) {
   summary["max_depth"] = scene.render.max_depth;
   summary["overrides"] = a.sets;
   summary["reference"] = {{"spp", a.reference_spp}, {"strategy", strategy_name(ref_strategy)}, {"file", ref_path},
-                          {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed}};
+                          {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed},
+                          {"rmse_floor", floor_all}, {"rmse_floor_nolight", floor_nolight}};
   summary["backend"] = backend->name();
   summary["device"] = backend->device_name();
   json info = json::object();
