@@ -1,7 +1,11 @@
 # The OptiX backend is built when CUDA is available and OptiX headers are found
 # through OptiX_ROOT (CMake or environment variable): the folder holding
 # include/optix.h. Nothing here runs a GPU program, so it configures and compiles
-# on machines without a GPU (CI does exactly that).
+# on machines without a GPU (CI does exactly that, with the headers that
+# .ci/optix_headers.sh unpacks from PyPI).
+#
+# Included from the top-level CMakeLists.txt (not add_subdirectory) so that the
+# CUDA language is enabled in the top directory, as CMake requires.
 set(PENUMBRA_OPTIX_SUMMARY "; optix: not built")
 set(PENUMBRA_HAVE_OPTIX OFF)
 if(NOT PENUMBRA_OPTIX)
@@ -24,6 +28,33 @@ if(NOT CMAKE_CUDA_COMPILER)
   set(PENUMBRA_OPTIX_SUMMARY "; optix: left out (no CUDA compiler)")
   return()
 endif()
-if(EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/src/backends/optix/CMakeLists.txt")
-  add_subdirectory(src/backends/optix)
+if(NOT EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/src/backends/optix/CMakeLists.txt")
+  set(PENUMBRA_OPTIX_SUMMARY "; optix: left out (no sources)")
+  return()
 endif()
+
+# GPU architectures. Nothing here may depend on a GPU being present, so no
+# "native": the default is Hopper machine code (the project's benchmark GPU)
+# plus Turing PTX that the driver compiles for any newer GPU. Override with
+# -DCMAKE_CUDA_ARCHITECTURES=... (e.g. 89 for an RTX 40xx).
+if(NOT DEFINED CMAKE_CUDA_ARCHITECTURES AND NOT DEFINED ENV{CUDAARCHS})
+  set(CMAKE_CUDA_ARCHITECTURES "75-virtual;90-real" CACHE STRING "CUDA architectures (penumbra default)")
+endif()
+enable_language(CUDA)
+find_package(CUDAToolkit REQUIRED)
+
+# OptiX version from the headers, for messages.
+file(STRINGS "${OptiX_ROOT}/include/optix.h" _pn_optix_version_line REGEX "^#define OPTIX_VERSION [0-9]+")
+string(REGEX REPLACE "^#define OPTIX_VERSION ([0-9]+).*" "\\1" _pn_optix_version "${_pn_optix_version_line}")
+math(EXPR _pn_optix_major "${_pn_optix_version} / 10000")
+math(EXPR _pn_optix_minor "(${_pn_optix_version} % 10000) / 100")
+math(EXPR _pn_optix_micro "${_pn_optix_version} % 100")
+set(PENUMBRA_OPTIX_VERSION_STRING "${_pn_optix_major}.${_pn_optix_minor}.${_pn_optix_micro}")
+
+add_subdirectory(src/backends/optix)
+
+target_link_libraries(penumbra_lib PUBLIC penumbra_optix)
+target_compile_definitions(penumbra_lib PUBLIC PN_HAVE_OPTIX=1)
+set(PENUMBRA_HAVE_OPTIX ON)
+set(PENUMBRA_OPTIX_SUMMARY
+    "; optix (OptiX ${PENUMBRA_OPTIX_VERSION_STRING} headers, CUDA ${CMAKE_CUDA_COMPILER_VERSION}, architectures ${CMAKE_CUDA_ARCHITECTURES})")

@@ -26,7 +26,7 @@ std::unique_ptr<Backend> make_backend(const std::string& which, const Scene& sce
   }
   if (which == "optix") {
 #if PN_HAVE_OPTIX
-    auto b = make_optix_backend(scene);
+    auto b = make_optix_backend(scene, options);
     *note = "backend: optix (" + b->device_name() + ")";
     return b;
 #else
@@ -39,7 +39,7 @@ std::unique_ptr<Backend> make_backend(const std::string& which, const Scene& sce
 #if PN_HAVE_OPTIX
     std::string why;
     if (optix_available(&why)) {
-      auto b = make_optix_backend(scene);
+      auto b = make_optix_backend(scene, options);
       *note = "backend: optix (" + b->device_name() + "), chosen by --backend auto";
       return b;
     }

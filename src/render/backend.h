@@ -7,6 +7,8 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "core/camera.h"
 #include "core/integrator.h"
@@ -28,6 +30,19 @@ FrameSpec frame_spec(const Scene& scene);
 // sample is one path through one pixel. Calls are serialised by the backend.
 using ProgressFn = std::function<void(uint64_t done, uint64_t total)>;
 
+// GPU time of one launch, measured with CUDA events (`render --stats`, `bench`).
+struct LaunchTiming {
+  uint32_t spp = 0;           // samples per pixel the launch added
+  float trace_ms = 0.f;       // path tracing (the OptiX launch)
+  float accumulate_ms = 0.f;  // accumulation into the progressive buffers (+ tone-map when displaying)
+};
+
+// What the last render() call measured. Backends fill what they can.
+struct RenderStats {
+  std::vector<LaunchTiming> launches;  // one per GPU launch; empty on the CPU
+  uint64_t rays = 0;                   // rays traced (path + shadow rays), counted exactly; 0 = not counted
+};
+
 class Backend {
  public:
   virtual ~Backend() = default;
@@ -38,10 +53,15 @@ class Backend {
   // path whichever call or thread computes it.
   virtual void render(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
                       const ProgressFn& progress = nullptr) = 0;
+  // Statistics of the last render() call.
+  virtual RenderStats last_render_stats() const { return {}; }
+  // Facts about the device for reports (GPU name, driver, versions), in order.
+  virtual std::vector<std::pair<std::string, std::string>> device_info() const { return {}; }
 };
 
 struct BackendOptions {
   int threads = 0;  // CPU: 0 = all hardware threads
+  int spp_per_launch = 0;  // GPU: samples per pixel per launch; 0 = automatic
 };
 
 // Returns "cpu", "optix" or "auto"'s choice. Throws std::runtime_error with one

@@ -1,0 +1,123 @@
+#!/usr/bin/env bash
+# Proof that the OptiX backend computes the same images as the CPU backend.
+# Needs an NVIDIA GPU with a driver that supports the build's OptiX ABI, so it
+# cannot run in CI.
+#
+#   scripts/gpu_check.sh [BUILD_DIR]
+#
+# Without BUILD_DIR it configures and builds build-gpu-check (Release,
+# CMAKE_CUDA_ARCHITECTURES=90, OptiX_ROOT from the environment or .optix/).
+# Then:
+#   1. the unit tests (ctest);
+#   2. every built-in scene at low resolution with strategies area and
+#      solid-angle, rendered by both backends with independent seeds (CPU seed
+#      0, GPU seed 1), each pair compared by `penumbra compare` (per-pixel
+#      differences within the combined standard errors; mean relative
+#      difference under 1%); plus one GPU render with the CPU's own seed;
+#   3. compute-sanitizer --tool memcheck on a short OptiX render: 0 errors.
+# Prints PASS/FAIL per step and a summary; exits 0 only if everything passed.
+#
+# Environment: GPU_CHECK_OUT (output folder, default BUILD_DIR/gpu_check),
+# GPU_CHECK_WIDTH/HEIGHT/SPP (default 128x72, 256 spp), OptiX_ROOT.
+set -uo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${1:-}
+width=${GPU_CHECK_WIDTH:-128}
+height=${GPU_CHECK_HEIGHT:-72}
+spp=${GPU_CHECK_SPP:-256}
+
+declare -a names=() verdicts=()
+failed=0
+record() {  # record NAME STATUS
+  names+=("$1")
+  if [[ $2 -eq 0 ]]; then verdicts+=("PASS"); else verdicts+=("FAIL"); failed=1; fi
+  printf '%-52s %s\n' "$1" "${verdicts[-1]}"
+}
+
+if [[ -z $build ]]; then
+  build=$root/build-gpu-check
+  optix_root=${OptiX_ROOT:-$root/.optix}
+  echo "== configure and build $build (OptiX_ROOT=$optix_root)"
+  cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CUDA_ARCHITECTURES=90 \
+    -DOptiX_ROOT="$optix_root" || { echo "gpu_check: FAIL: configure"; exit 1; }
+  cmake --build "$build" || { echo "gpu_check: FAIL: build"; exit 1; }
+fi
+build=$(cd "$build" && pwd)
+penumbra=$build/penumbra
+out=${GPU_CHECK_OUT:-$build/gpu_check}
+mkdir -p "$out"
+if [[ ! -x $penumbra ]]; then
+  echo "gpu_check: FAIL: no executable $penumbra"
+  exit 1
+fi
+echo "== $("$penumbra" render cornell-sphere --backend optix --width 8 --height 8 --spp 1 -o "$out/probe.exr" 2>&1 | head -n 1)"
+
+# 1. Unit tests.
+echo "== unit tests"
+if [[ -f $build/CTestTestfile.cmake ]]; then
+  ctest --test-dir "$build" --output-on-failure -j "$(nproc)" >"$out/ctest.log" 2>&1
+  st=$?
+  tail -n 3 "$out/ctest.log"
+  record "unit tests (ctest)" $st
+else
+  echo "no tests in $build (PENUMBRA_TESTS=OFF?)"
+  record "unit tests (ctest): none built" 1
+fi
+
+# 2. CPU and GPU images.
+echo "== CPU vs GPU at ${width}x${height}, $spp spp"
+render() {  # render SCENE STRATEGY BACKEND SEED NAME
+  "$penumbra" render "$1" --strategy "$2" --backend "$3" --seed "$4" --width "$width" --height "$height" \
+    --spp "$spp" -o "$out/$5.exr" --variance "$out/$5_var.exr" >"$out/$5.log" 2>&1
+}
+scenes=$("$penumbra" scenes | awk '{print $1}')
+for scene in $scenes; do
+  for strategy in area solid-angle; do
+    cpu=${scene}_${strategy}_cpu
+    gpu=${scene}_${strategy}_optix
+    if ! render "$scene" "$strategy" cpu 0 "$cpu"; then
+      cat "$out/$cpu.log"; record "$scene $strategy: cpu render" 1; continue
+    fi
+    if ! render "$scene" "$strategy" optix 1 "$gpu"; then
+      cat "$out/$gpu.log"; record "$scene $strategy: optix render" 1; continue
+    fi
+    "$penumbra" compare "$out/$cpu.exr" "$out/${cpu}_var.exr" "$out/$gpu.exr" "$out/${gpu}_var.exr" \
+      | tee "$out/${scene}_${strategy}_compare.txt"
+    record "$scene $strategy: cpu == optix" "${PIPESTATUS[0]}"
+  done
+done
+# Same seed: the GPU traces the very paths the CPU traced (same RNG streams).
+first=$(echo "$scenes" | head -n 1)
+if render "$first" solid-angle optix 0 "${first}_solid-angle_optix_seed0"; then
+  "$penumbra" compare "$out/${first}_solid-angle_cpu.exr" "$out/${first}_solid-angle_cpu_var.exr" \
+    "$out/${first}_solid-angle_optix_seed0.exr" "$out/${first}_solid-angle_optix_seed0_var.exr" \
+    | tee "$out/${first}_same_seed_compare.txt"
+  record "$first solid-angle, same seed: cpu == optix" "${PIPESTATUS[0]}"
+else
+  record "$first solid-angle, same seed: optix render" 1
+fi
+
+# 3. Memory checker on a short render.
+echo "== compute-sanitizer --tool memcheck"
+if command -v compute-sanitizer >/dev/null 2>&1; then
+  compute-sanitizer --tool memcheck --leak-check full --error-exitcode 9 \
+    "$penumbra" render cornell-sphere --backend optix --width 64 --height 36 --spp 4 -o "$out/memcheck.exr" \
+    >"$out/memcheck.log" 2>&1
+  st=$?
+  grep -E "ERROR SUMMARY|LEAK SUMMARY" "$out/memcheck.log" || tail -n 5 "$out/memcheck.log"
+  grep -q "ERROR SUMMARY: 0 errors" "$out/memcheck.log" || st=1
+  record "compute-sanitizer memcheck: 0 errors" $st
+else
+  record "compute-sanitizer memcheck: compute-sanitizer not found" 1
+fi
+
+echo
+echo "== gpu_check summary ($(date -u +%Y-%m-%dT%H:%M:%SZ), outputs in $out)"
+for i in "${!names[@]}"; do printf '  %-4s %s\n' "${verdicts[$i]}" "${names[$i]}"; done
+if [[ $failed -eq 0 ]]; then
+  echo "gpu_check: PASS (${#names[@]} checks)"
+  exit 0
+fi
+echo "gpu_check: FAIL"
+exit 1

@@ -1,0 +1,326 @@
+// `penumbra bench`: time every built-in scene with every strategy, one sample
+// per pixel per launch, and report the median and spread of the launch times as
+// a table and as JSON.
+//
+// GPU: each launch's time comes from CUDA events (path tracing, then the
+// accumulation and, as a viewer does, the tone-map), over many launches after
+// a warm-up. CPU: each launch is one render() call of spp-per-launch samples,
+// timed by the wall clock.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/commands.h"
+#include "render/backend.h"
+#include "scene/scene.h"
+#if PN_HAVE_OPTIX
+#include "backends/optix/optix_backend.h"
+#endif
+
+#ifndef PENUMBRA_GIT_COMMIT
+#define PENUMBRA_GIT_COMMIT "unknown"
+#endif
+
+namespace pn {
+namespace {
+
+using json = nlohmann::json;
+
+struct BenchArgs {
+  std::string backend = "auto";
+  std::vector<std::string> scenes, strategies, sets;
+  int width = 0, height = 0;  // 0: 1920x1080 on the GPU, 320x180 on the CPU
+  int launches = 0;           // 0: 100 on the GPU, 10 on the CPU
+  int warmup = -1;            // -1: 10 on the GPU, 1 on the CPU
+  int spp_per_launch = 1;
+  int max_depth = 8;
+  int threads = 0;
+  bool no_display = false;
+  std::string json_path;
+};
+
+struct Spread {
+  double median = 0, min = 0, p10 = 0, p90 = 0, max = 0;
+};
+
+// Nearest-rank-with-interpolation percentile of sorted values.
+double percentile(const std::vector<double>& sorted, double q) {
+  if (sorted.empty()) return 0.0;
+  double pos = q * double(sorted.size() - 1);
+  size_t i = size_t(pos);
+  double f = pos - double(i);
+  return i + 1 < sorted.size() ? sorted[i] * (1 - f) + sorted[i + 1] * f : sorted[i];
+}
+
+Spread spread(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  Spread s;
+  if (v.empty()) return s;
+  s.median = percentile(v, 0.5);
+  s.min = v.front();
+  s.p10 = percentile(v, 0.1);
+  s.p90 = percentile(v, 0.9);
+  s.max = v.back();
+  return s;
+}
+
+json spread_json(const Spread& s) {
+  return {{"median", s.median}, {"min", s.min}, {"p10", s.p10}, {"p90", s.p90}, {"max", s.max}};
+}
+
+std::string utc_now() {
+  std::time_t t = std::time(nullptr);
+  char buf[64];
+  std::tm tm_utc;
+  gmtime_r(&t, &tm_utc);
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm_utc);
+  return buf;
+}
+
+std::string cpu_model() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("model name", 0) == 0) {
+      size_t colon = line.find(':');
+      if (colon != std::string::npos) return line.substr(line.find_first_not_of(" \t", colon + 1));
+    }
+  return "unknown";
+}
+
+std::vector<std::string> split_list(const std::vector<std::string>& items) {
+  std::vector<std::string> out;
+  for (const std::string& item : items) {
+    std::stringstream ss(item);
+    std::string part;
+    while (std::getline(ss, part, ','))
+      if (!part.empty()) out.push_back(part);
+  }
+  return out;
+}
+
+struct Result {
+  std::string scene, strategy;
+  Spread ms;             // per launch: trace + accumulate (GPU), wall (CPU)
+  Spread trace_ms, accumulate_ms;
+  double wall_ms_per_launch = 0;  // end-to-end, host clock, over the timed launches
+  double msamples_per_s = 0;      // at the median launch time
+  uint64_t rays = 0;              // over the timed launches; 0 = not counted
+  double rays_per_s = 0;          // rays / GPU time of the timed launches
+};
+
+int run_bench(const BenchArgs& a) {
+  std::vector<std::string> scene_names = split_list(a.scenes);
+  if (scene_names.empty())
+    for (const auto& s : builtin_scenes()) scene_names.push_back(s.name);
+  std::vector<Strategy> strategies;
+  for (const std::string& s : split_list(a.strategies)) strategies.push_back(parse_strategy(s, "--strategies"));
+  if (strategies.empty())
+    for (int i = 0; i < kNumStrategies; ++i) strategies.push_back(Strategy(i));
+  if (a.spp_per_launch < 1) throw std::runtime_error("--spp-per-launch must be at least 1");
+
+  std::vector<Result> results;
+  std::string backend_name, device_name;
+  std::vector<std::pair<std::string, std::string>> info;
+  int W = 0, H = 0, launches = 0, warmup = 0;
+
+  for (const std::string& scene_name : scene_names) {
+    // The backend is chosen with the first scene; the size defaults follow it.
+    std::vector<std::string> overrides = a.sets;
+    overrides.push_back("render.max_depth=" + std::to_string(a.max_depth));
+    bool gpu = backend_name.empty() ? a.backend != "cpu" : backend_name != "cpu";
+    W = a.width ? a.width : (gpu ? 1920 : 320);
+    H = a.height ? a.height : (gpu ? 1080 : 180);
+    overrides.push_back("render.width=" + std::to_string(W));
+    overrides.push_back("render.height=" + std::to_string(H));
+    Scene scene = load_scene(scene_name, overrides);
+
+    BackendOptions opts;
+    opts.threads = a.threads;
+    opts.spp_per_launch = a.spp_per_launch;
+    std::string note;
+    std::unique_ptr<Backend> backend = make_backend(backend_name.empty() ? a.backend : backend_name, scene, opts, &note);
+    if (backend_name.empty()) {
+      std::fprintf(stderr, "%s\n", note.c_str());
+      backend_name = backend->name();
+      device_name = backend->device_name();
+      info = backend->device_info();
+      if (backend_name == "cpu" && gpu && !a.width) {  // auto fell back: CPU sizes
+        W = 320, H = 180;
+        overrides[overrides.size() - 2] = "render.width=" + std::to_string(W);
+        overrides.back() = "render.height=" + std::to_string(H);
+        backend.reset();
+        scene = load_scene(scene_name, overrides);
+        backend = make_backend("cpu", scene, opts, &note);
+      }
+      gpu = backend_name != "cpu";
+      launches = a.launches ? a.launches : (gpu ? 100 : 10);
+      warmup = a.warmup >= 0 ? a.warmup : (gpu ? 10 : 1);
+      std::fprintf(stderr, "bench: %dx%d, %d spp per launch, max depth %d, %d warm-up + %d timed launches%s\n", W, H,
+                   a.spp_per_launch, a.max_depth, warmup, launches,
+                   gpu ? (a.no_display ? "" : ", accumulate + tone-map every launch") : "");
+    }
+#if PN_HAVE_OPTIX
+    if (auto* ob = dynamic_cast<OptixBackend*>(backend.get())) ob->set_display(!a.no_display, 0.f);
+#endif
+
+    for (Strategy strategy : strategies) {
+      FrameSpec frame = frame_spec(scene);
+      frame.integrator.strategy = strategy;
+      Film film(W, H);
+      const double pixels = double(W) * double(H);
+      Result r;
+      r.scene = scene_name;
+      r.strategy = strategy_name(strategy);
+      if (warmup > 0) backend->render(frame, film, 0, uint32_t(warmup * a.spp_per_launch));
+      const uint32_t first = uint32_t(warmup * a.spp_per_launch);
+      std::vector<double> total, trace, acc;
+      double gpu_ms = 0;
+      auto t0 = std::chrono::steady_clock::now();
+      if (gpu) {
+        backend->render(frame, film, first, uint32_t(launches * a.spp_per_launch));
+        RenderStats st = backend->last_render_stats();
+        for (const LaunchTiming& l : st.launches) {
+          total.push_back(double(l.trace_ms) + double(l.accumulate_ms));
+          trace.push_back(l.trace_ms);
+          acc.push_back(l.accumulate_ms);
+          gpu_ms += total.back();
+        }
+        r.rays = st.rays;
+      } else {
+        for (int i = 0; i < launches; ++i) {
+          auto s = std::chrono::steady_clock::now();
+          backend->render(frame, film, first + uint32_t(i * a.spp_per_launch), uint32_t(a.spp_per_launch));
+          total.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - s).count());
+        }
+      }
+      double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      r.wall_ms_per_launch = wall / std::max(1, launches);
+      r.ms = spread(total);
+      r.trace_ms = spread(trace);
+      r.accumulate_ms = spread(acc);
+      r.msamples_per_s = r.ms.median > 0 ? pixels * a.spp_per_launch / (r.ms.median * 1e-3) * 1e-6 : 0;
+      r.rays_per_s = (r.rays && gpu_ms > 0) ? double(r.rays) / (gpu_ms * 1e-3) : 0;
+      std::fprintf(stderr, "  %-16s %-12s %9.3f ms/launch (median of %zu)\n", r.scene.c_str(), r.strategy.c_str(),
+                   r.ms.median, total.size());
+      results.push_back(r);
+    }
+  }
+
+  // ---- Table ----
+  const bool gpu = backend_name != "cpu";
+  std::printf("\npenumbra bench: %s (%s), %dx%d, %d spp/launch, max depth %d, median of %d launches after %d warm-up\n",
+              backend_name.c_str(), device_name.c_str(), W, H, a.spp_per_launch, a.max_depth, launches, warmup);
+  std::printf("%-16s %-12s %9s %9s %9s %9s %9s %8s %8s %10s %9s %8s\n", "scene", "strategy", "ms/launch", "min",
+              "p10", "p90", "max", "trace", "accum", "Msamples/s", "Grays/s", "vs area");
+  for (const Result& r : results) {
+    double area_ms = 0;
+    for (const Result& o : results)
+      if (o.scene == r.scene && o.strategy == "area") area_ms = o.ms.median;
+    char vs[32] = "-";
+    if (area_ms > 0) std::snprintf(vs, sizeof vs, "%+.1f%%", (r.ms.median / area_ms - 1.0) * 100.0);
+    char rays[32] = "-";
+    if (r.rays_per_s > 0) std::snprintf(rays, sizeof rays, "%.2f", r.rays_per_s * 1e-9);
+    char trace[32] = "-", accum[32] = "-";
+    if (gpu) {
+      std::snprintf(trace, sizeof trace, "%.3f", r.trace_ms.median);
+      std::snprintf(accum, sizeof accum, "%.3f", r.accumulate_ms.median);
+    }
+    std::printf("%-16s %-12s %9.3f %9.3f %9.3f %9.3f %9.3f %8s %8s %10.2f %9s %8s\n", r.scene.c_str(),
+                r.strategy.c_str(), r.ms.median, r.ms.min, r.ms.p10, r.ms.p90, r.ms.max, trace, accum,
+                r.msamples_per_s, rays, vs);
+  }
+
+  // ---- JSON ----
+  if (!a.json_path.empty()) {
+    json j;
+    j["tool"] = "penumbra bench";
+    j["date"] = utc_now();
+    j["git_commit"] = PENUMBRA_GIT_COMMIT;
+    j["backend"] = backend_name;
+    j["device"] = device_name;
+    json dev = json::object();
+    for (const auto& kv : info) dev[kv.first] = kv.second;
+    dev["host_cpu"] = cpu_model();
+    j["device_info"] = dev;
+    j["settings"] = {{"width", W},
+                     {"height", H},
+                     {"spp_per_launch", a.spp_per_launch},
+                     {"max_depth", a.max_depth},
+                     {"warmup_launches", warmup},
+                     {"timed_launches", launches},
+                     {"tonemap_every_launch", gpu && !a.no_display},
+                     {"sets", a.sets}};
+    j["timing"] = gpu ? "GPU time per launch from CUDA events: path tracing (optixLaunch) + accumulate/tone-map kernel"
+                      : "wall-clock time per render() call of spp_per_launch samples";
+    j["rays"] = gpu ? "exact count of optixTrace calls (path + shadow rays), summed per pixel on the device"
+                    : "not counted on the CPU";
+    json rs = json::array();
+    for (const Result& r : results) {
+      json o = {{"scene", r.scene},
+                {"strategy", r.strategy},
+                {"ms_per_launch", spread_json(r.ms)},
+                {"msamples_per_s", r.msamples_per_s},
+                {"wall_ms_per_launch", r.wall_ms_per_launch}};
+      if (gpu) {
+        o["trace_ms"] = spread_json(r.trace_ms);
+        o["accumulate_ms"] = spread_json(r.accumulate_ms);
+        o["rays"] = r.rays;
+        o["rays_per_launch"] = launches ? double(r.rays) / launches : 0.0;
+        o["rays_per_s"] = r.rays_per_s;
+      }
+      rs.push_back(o);
+    }
+    j["results"] = rs;
+    std::ofstream f(a.json_path);
+    if (!f) throw std::runtime_error(a.json_path + ": cannot write");
+    f << j.dump(2) << "\n";
+    if (!f) throw std::runtime_error(a.json_path + ": write failed");
+    std::fprintf(stderr, "wrote %s\n", a.json_path.c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+Command add_bench_command(CLI::App& app) {
+  auto a = std::make_shared<BenchArgs>();
+  auto* sub = app.add_subcommand(
+      "bench", "Time every built-in scene and strategy: median and spread of many 1-spp launches (table + JSON)");
+  sub->add_option("--backend", a->backend, "cpu, optix, or auto")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"cpu", "optix", "auto"}));
+  sub->add_option("--scenes", a->scenes, "Scenes, comma-separated (default: every built-in scene)");
+  sub->add_option("--strategies", a->strategies, "Strategies, comma-separated (default: " + strategy_names() + ")");
+  sub->add_option("--width", a->width, "Image width (default: 1920 on the GPU, 320 on the CPU)")
+      ->check(CLI::Range(1, 16384));
+  sub->add_option("--height", a->height, "Image height (default: 1080 on the GPU, 180 on the CPU)")
+      ->check(CLI::Range(1, 16384));
+  sub->add_option("--launches", a->launches, "Timed launches (default: 100 on the GPU, 10 on the CPU)")
+      ->check(CLI::Range(1, 1000000));
+  sub->add_option("--warmup", a->warmup, "Warm-up launches (default: 10 on the GPU, 1 on the CPU)")
+      ->check(CLI::Range(0, 1000000));
+  sub->add_option("--spp-per-launch", a->spp_per_launch, "Samples per pixel per launch")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 65536));
+  sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces")->capture_default_str()->check(CLI::Range(0, 64));
+  sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  sub->add_flag("--no-tonemap", a->no_display, "GPU: time accumulation only, without the per-launch tone-map");
+  sub->add_option("--json", a->json_path, "Write the results as JSON to this file");
+  sub->add_option("--set", a->sets, "Override any scene value, e.g. --set light.radius=0.05")
+      ->take_all()
+      ->allow_extra_args(false);
+  return {sub, [a]() { return run_bench(*a); }};
+}
+
+}  // namespace pn

@@ -1,0 +1,168 @@
+// OptiX device programs of the GPU backend, compiled to OptiX-IR at build time
+// and embedded in the executable.
+//
+// The raygen program runs THE integrator, pn::render_sample from
+// core/integrator.h, with a Tracer whose two queries are optixTrace calls:
+//   intersect(): closest hit. The closest-hit programs only rebuild the hit
+//                (point, geometric normal, material, light) with the same core
+//                helpers the CPU backend uses, and return it in payload registers.
+//   occluded():  any hit. Terminate on the first hit, no closest-hit, no
+//                any-hit program; the shadow miss program marks the ray visible.
+// No shading happens outside render_sample.
+#include <optix.h>
+
+#include "backends/optix/launch_params.h"
+#include "core/geometry.h"
+#include "core/integrator.h"
+
+namespace pn {
+namespace optix {
+
+// The launch parameters, named `params` for OptiX. LaunchParams holds core types
+// whose constructors are user-provided, which a __constant__ variable cannot
+// have, so the constant is raw storage of the same size and alignment.
+extern "C" {
+__constant__ __align__(16) unsigned char params[sizeof(LaunchParams)];
+}
+
+namespace {
+
+__forceinline__ __device__ const LaunchParams& P() { return *reinterpret_cast<const LaunchParams*>(params); }
+
+__forceinline__ __device__ float3 to_float3(Vec3 v) { return make_float3(v.x, v.y, v.z); }
+__forceinline__ __device__ Vec3 to_vec3(float3 v) { return Vec3(v.x, v.y, v.z); }
+
+// The integrator's view of OptiX. `rays` counts the optixTrace calls of one
+// pixel's samples (for rays/s); the raygen program reports it.
+struct Tracer {
+  mutable uint32_t rays = 0;
+
+  __device__ bool intersect(const Ray& ray, float tmax, SurfaceHit* hit) const {
+    ++rays;
+    uint32_t t, px, py, pz, nx, ny, nz, material = kMissMarker, light;
+    optixTrace(P().handle, to_float3(ray.o), to_float3(ray.d), 0.f, tmax, 0.f, OptixVisibilityMask(255),
+               OPTIX_RAY_FLAG_DISABLE_ANYHIT, 0, 1, kMissRadiance, t, px, py, pz, nx, ny, nz, material, light);
+    if (material == kMissMarker) return false;
+    hit->t = __uint_as_float(t);
+    hit->p = Vec3(__uint_as_float(px), __uint_as_float(py), __uint_as_float(pz));
+    hit->n = Vec3(__uint_as_float(nx), __uint_as_float(ny), __uint_as_float(nz));
+    hit->material = material;
+    hit->light = int32_t(light);
+    return true;
+  }
+
+  __device__ bool occluded(const Ray& ray, float tmax) const {
+    ++rays;
+    uint32_t occluded = 1u;  // the shadow miss program clears it
+    optixTrace(P().handle, to_float3(ray.o), to_float3(ray.d), 0.f, tmax, 0.f, OptixVisibilityMask(255),
+               OPTIX_RAY_FLAG_TERMINATE_ON_FIRST_HIT | OPTIX_RAY_FLAG_DISABLE_CLOSESTHIT |
+                   OPTIX_RAY_FLAG_DISABLE_ANYHIT,
+               0, 1, kMissShadow, occluded);
+    return occluded != 0u;
+  }
+};
+
+__forceinline__ __device__ void set_hit_payload(float t, Vec3 p, Vec3 n, uint32_t material, int32_t light) {
+  optixSetPayload_0(__float_as_uint(t));
+  optixSetPayload_1(__float_as_uint(p.x));
+  optixSetPayload_2(__float_as_uint(p.y));
+  optixSetPayload_3(__float_as_uint(p.z));
+  optixSetPayload_4(__float_as_uint(n.x));
+  optixSetPayload_5(__float_as_uint(n.y));
+  optixSetPayload_6(__float_as_uint(n.z));
+  optixSetPayload_7(material);
+  optixSetPayload_8(uint32_t(light));
+}
+
+// Thread t of the launch's T threads takes pixels t, t + T, t + 2T, ...: one
+// pixel each by default (a W x H or a 1D launch; PENUMBRA_OPTIX_LAUNCH and
+// PENUMBRA_OPTIX_PIXELS_PER_THREAD tune this), params.spp samples of each,
+// summed with their squares.
+//
+// One raygen program per strategy (the PN_STRATEGIES registry): with the strategy
+// a compile-time constant, the other strategies' sampling code folds away, which
+// keeps the megakernel small; instruction fetch, not arithmetic, is what stalls
+// warps most in this kernel (ncu: stall_no_inst).
+template <Strategy kStrategy>
+__forceinline__ __device__ void render_pixels() {
+  const LaunchParams& p = P();
+  IntegratorSettings settings = p.integrator;
+  settings.strategy = kStrategy;
+  const uint3 dim = optixGetLaunchDimensions(), idx = optixGetLaunchIndex();
+  const uint32_t threads = dim.x * dim.y;
+  const uint32_t width = uint32_t(p.camera.width);
+  const uint32_t pixels = width * uint32_t(p.camera.height);
+  for (uint32_t pixel = idx.y * dim.x + idx.x; pixel < pixels; pixel += threads) {
+    const int px = int(pixel % width), py = int(pixel / width);
+    Tracer tracer;
+    float3 sum = make_float3(0.f, 0.f, 0.f), sum_sq = make_float3(0.f, 0.f, 0.f);
+    uint32_t nonfinite = 0;
+    for (uint32_t i = 0; i < p.spp; ++i) {
+      Vec3 L = render_sample(tracer, p.scene, p.camera, settings, px, py, p.first_sample + i, p.seed);
+      if (!is_finite(L)) {  // as on the CPU: skipped, counted, reported by the host
+        ++nonfinite;
+        continue;
+      }
+      sum.x += L.x;
+      sum.y += L.y;
+      sum.z += L.z;
+      sum_sq.x += L.x * L.x;
+      sum_sq.y += L.y * L.y;
+      sum_sq.z += L.z * L.z;
+    }
+    p.sum[pixel] = make_float4(sum.x, sum.y, sum.z, float(tracer.rays));
+    p.sum_sq[pixel] = make_float4(sum_sq.x, sum_sq.y, sum_sq.z, float(nonfinite));
+  }
+}
+
+}  // namespace
+}  // namespace optix
+}  // namespace pn
+
+using namespace pn;
+using namespace pn::optix;
+
+// __raygen__Area, __raygen__SolidAngle, __raygen__Bsdf, ...
+#define PN_X(e, name, fn, nee, desc) \
+  extern "C" __global__ void __raygen__##e() { render_pixels<Strategy::e>(); }
+PN_STRATEGIES(PN_X)
+#undef PN_X
+
+extern "C" __global__ void __miss__radiance() { optixSetPayload_7(kMissMarker); }
+
+extern "C" __global__ void __miss__shadow() { optixSetPayload_0(0u); }
+
+// A triangle of a placed mesh: barycentric reconstruction in object space, then
+// the instance transform, exactly as the CPU backend does it.
+__forceinline__ __device__ void report_mesh_hit(const DeviceInstance& inst, uint32_t triangle) {
+  const uint32_t* tri = inst.indices + 3u * triangle;
+  const float2 b = optixGetTriangleBarycentrics();
+  Vec3 p, n;
+  triangle_hit(inst.positions[tri[0]], inst.positions[tri[1]], inst.positions[tri[2]], b.x, b.y, &p, &n);
+  instance_to_world(inst.to_world, inst.to_object, &p, &n);
+  set_hit_payload(optixGetRayTmax(), p, n, inst.material, inst.light);
+}
+
+extern "C" __global__ void __closesthit__mesh() {
+  report_mesh_hit(P().instances[optixGetInstanceId()], optixGetPrimitiveIndex());
+}
+
+// A sphere (built-in primitive or custom): the sphere instance has the identity
+// transform, so the world ray is the ray the hit distance refers to.
+extern "C" __global__ void __closesthit__sphere() {
+  const DeviceSphere& s = P().spheres[optixGetPrimitiveIndex()];
+  const float t = optixGetRayTmax();
+  Vec3 p, n;
+  sphere_hit(s.center, s.radius, Ray(to_vec3(optixGetWorldRayOrigin()), to_vec3(optixGetWorldRayDirection())), t,
+             &p, &n);
+  set_hit_payload(t, p, n, s.material, s.light);
+}
+
+// Custom-primitive spheres: the core's ray-sphere test, as Embree's user geometry.
+extern "C" __global__ void __intersection__sphere() {
+  const DeviceSphere& s = P().spheres[optixGetPrimitiveIndex()];
+  const Ray ray(to_vec3(optixGetObjectRayOrigin()), to_vec3(optixGetObjectRayDirection()));
+  float t;
+  if (intersect_sphere(ray, s.center, s.radius, optixGetRayTmin(), optixGetRayTmax(), &t))
+    optixReportIntersection(t, 0u);
+}

@@ -1,0 +1,881 @@
+// OptiX backend, host side: device and context, acceleration structures (one
+// compacted GAS per mesh, one GAS of spheres, an IAS over all instances), the
+// pipeline built from the embedded OptiX-IR, and progressive launches with
+// per-launch CUDA-event timing.
+#include "backends/optix/optix_backend.h"
+
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <cuda_runtime.h>
+#include <optix.h>
+#include <optix_function_table_definition.h>
+#include <optix_stack_size.h>
+#include <optix_stubs.h>
+
+#include "backends/optix/kernels.h"
+#include "backends/optix/launch_params.h"
+
+// The device programs, OptiX-IR embedded at build time (embed_file.cmake).
+extern const unsigned char penumbra_optix_ir[];
+extern const size_t penumbra_optix_ir_size;
+
+namespace pn {
+namespace {
+
+using optix::DeviceInstance;
+using optix::DeviceSphere;
+using optix::LaunchParams;
+
+// ---- Errors: every CUDA and OptiX call is checked; messages are one line. ------
+
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+// "cudaMalloc(&p, n)" -> "cudaMalloc"
+std::string call_name(const char* expr) {
+  std::string s(expr);
+  size_t paren = s.find('(');
+  return paren == std::string::npos ? s : s.substr(0, paren);
+}
+
+void check_cuda(cudaError_t e, const char* expr) {
+  if (e == cudaSuccess) return;
+  throw std::runtime_error("CUDA error in " + call_name(expr) + ": " + cudaGetErrorName(e) + " (" +
+                           cudaGetErrorString(e) + ")");
+}
+
+void check_optix(OptixResult r, const char* expr, const char* log = nullptr) {
+  if (r == OPTIX_SUCCESS) return;
+  std::string msg = "OptiX error in " + call_name(expr) + ": " + optixGetErrorName(r) + " (" +
+                    optixGetErrorString(r) + ")";
+  if (log && *log) msg += ": " + one_line(log);
+  throw std::runtime_error(msg);
+}
+
+#define PN_CUDA(call) check_cuda((call), #call)
+#define PN_OPTIX(call) check_optix((call), #call)
+#define PN_OPTIX_LOG(call, log) check_optix((call), #call, (log))
+
+std::string format_bytes(double b) {
+  char buf[64];
+  if (b >= 1024.0 * 1024 * 1024) std::snprintf(buf, sizeof buf, "%.2f GiB", b / (1024.0 * 1024 * 1024));
+  else if (b >= 1024.0 * 1024) std::snprintf(buf, sizeof buf, "%.1f MiB", b / (1024.0 * 1024));
+  else std::snprintf(buf, sizeof buf, "%.0f bytes", b);
+  return buf;
+}
+
+std::string optix_version_string(unsigned v) {
+  return std::to_string(v / 10000) + "." + std::to_string((v % 10000) / 100) + "." + std::to_string(v % 100);
+}
+
+// The NVIDIA driver's version ("580.159.04"): from the kernel module, else NVML.
+std::string driver_version() {
+  std::ifstream f("/proc/driver/nvidia/version");
+  std::string line;
+  if (f && std::getline(f, line)) {
+    std::istringstream words(line);
+    // "NVRM version: NVIDIA UNIX [Open Kernel Module for] x86_64 Kernel Module  580.159.04  Release Build ..."
+    std::string w;
+    bool after_module = false;
+    while (words >> w) {
+      if (w == "Module") after_module = true;
+      else if (after_module && std::isdigit((unsigned char)w[0]) && w.find('.') != std::string::npos) return w;
+    }
+  }
+  if (void* nvml = dlopen("libnvidia-ml.so.1", RTLD_NOW | RTLD_LOCAL)) {
+    using InitFn = int (*)();
+    using VersionFn = int (*)(char*, unsigned);
+    auto init = reinterpret_cast<InitFn>(dlsym(nvml, "nvmlInit_v2"));
+    auto version = reinterpret_cast<VersionFn>(dlsym(nvml, "nvmlSystemGetDriverVersion"));
+    auto shutdown = reinterpret_cast<InitFn>(dlsym(nvml, "nvmlShutdown"));
+    char buf[96] = {0};
+    std::string v;
+    if (init && version && init() == 0) {
+      if (version(buf, sizeof buf) == 0) v = buf;
+      if (shutdown) shutdown();
+    }
+    dlclose(nvml);
+    if (!v.empty()) return v;
+  }
+  return "unknown";
+}
+
+// ---- Availability: checked once per process. -------------------------------------
+
+struct Availability {
+  bool ok = false;
+  std::string why;
+};
+
+const Availability& availability() {
+  static Availability a;
+  static std::once_flag once;
+  std::call_once(once, [] {
+    int n = 0;
+    cudaError_t e = cudaGetDeviceCount(&n);
+    if (e == cudaErrorNoDevice || (e == cudaSuccess && n == 0)) {
+      a.why = "no NVIDIA GPU found (cudaGetDeviceCount: no CUDA-capable device)";
+      return;
+    }
+    if (e == cudaErrorInsufficientDriver) {
+      if (void* libcuda = dlopen("libcuda.so.1", RTLD_NOW | RTLD_LOCAL)) {
+        dlclose(libcuda);
+      } else {
+        a.why = "no NVIDIA driver found (libcuda.so.1 cannot be loaded)";
+        return;
+      }
+      int rt = 0;
+      cudaRuntimeGetVersion(&rt);
+      a.why = "the NVIDIA driver is older than this build's CUDA runtime " + std::to_string(rt / 1000) +
+              "." + std::to_string((rt % 1000) / 10) + " (cudaGetDeviceCount: " + cudaGetErrorString(e) + ")";
+      return;
+    }
+    if (e != cudaSuccess) {
+      a.why = std::string("no usable NVIDIA driver or GPU (cudaGetDeviceCount: ") + cudaGetErrorName(e) + ": " +
+              cudaGetErrorString(e) + ")";
+      return;
+    }
+    OptixResult r = optixInit();
+    if (r == OPTIX_ERROR_UNSUPPORTED_ABI_VERSION) {
+      a.why = "the NVIDIA driver (" + driver_version() + ") does not support the OptiX ABI this penumbra was built with: OptiX " +
+              optix_version_string(OPTIX_VERSION) + " (ABI " + std::to_string(OPTIX_ABI_VERSION) +
+              "); driver 580 supports up to OptiX 9.0 (ABI 105): rebuild with OptiX 9.0 headers (OptiX_ROOT) or update the driver";
+      return;
+    }
+    if (r == OPTIX_ERROR_LIBRARY_NOT_FOUND || r == OPTIX_ERROR_ENTRY_SYMBOL_NOT_FOUND) {
+      a.why = std::string("the NVIDIA driver has no usable OptiX library (libnvoptix.so.1): optixInit: ") +
+              optixGetErrorName(r);
+      return;
+    }
+    if (r != OPTIX_SUCCESS) {
+      a.why = std::string("optixInit failed: ") + optixGetErrorName(r) + " (" + optixGetErrorString(r) + ")";
+      return;
+    }
+    a.ok = true;
+  });
+  return a;
+}
+
+// ---- Device memory ---------------------------------------------------------------
+
+// What out-of-memory messages say about the scene.
+struct SceneSize {
+  size_t triangles = 0, meshes = 0, instances = 0, spheres = 0;
+  std::string describe() const {
+    auto n = [](size_t v, const char* one, const char* many) { return std::to_string(v) + " " + (v == 1 ? one : many); };
+    return n(triangles, "triangle", "triangles") + " (" + n(meshes, "mesh", "meshes") + ", " +
+           n(instances, "instance", "instances") + "), " + n(spheres, "sphere", "spheres");
+  }
+};
+
+class DeviceBuffer {
+ public:
+  DeviceBuffer() = default;
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  DeviceBuffer(DeviceBuffer&& o) noexcept : ptr_(o.ptr_), size_(o.size_) { o.ptr_ = nullptr, o.size_ = 0; }
+  DeviceBuffer& operator=(DeviceBuffer&& o) noexcept {
+    if (this != &o) {
+      release();
+      ptr_ = o.ptr_, size_ = o.size_;
+      o.ptr_ = nullptr, o.size_ = 0;
+    }
+    return *this;
+  }
+  ~DeviceBuffer() { release(); }
+
+  // Allocates `bytes`; an allocation failure becomes the out-of-memory message.
+  void alloc(size_t bytes, const char* what, const SceneSize& scene) {
+    release();
+    if (bytes == 0) return;
+    cudaError_t e = cudaMalloc(&ptr_, bytes);
+    if (e == cudaErrorMemoryAllocation) {
+      cudaGetLastError();  // clear it
+      size_t free_b = 0, total_b = 0;
+      cudaMemGetInfo(&free_b, &total_b);
+      throw std::runtime_error("out of GPU memory: " + std::to_string(bytes) + " bytes (" +
+                               format_bytes(double(bytes)) + ") requested for " + what + ", " +
+                               format_bytes(double(free_b)) + " of " + format_bytes(double(total_b)) +
+                               " free; scene: " + scene.describe());
+    }
+    check_cuda(e, "cudaMalloc");
+    size_ = bytes;
+  }
+  template <class T>
+  void upload(const std::vector<T>& v, const char* what, const SceneSize& scene) {
+    alloc(v.size() * sizeof(T), what, scene);
+    if (!v.empty()) PN_CUDA(cudaMemcpy(ptr_, v.data(), v.size() * sizeof(T), cudaMemcpyHostToDevice));
+  }
+  void release() {
+    if (ptr_) cudaFree(ptr_);  // never throws from a destructor
+    ptr_ = nullptr;
+    size_ = 0;
+  }
+  CUdeviceptr dptr() const { return reinterpret_cast<CUdeviceptr>(ptr_); }
+  template <class T>
+  T* as() const { return static_cast<T*>(ptr_); }
+  size_t size() const { return size_; }
+
+ private:
+  void* ptr_ = nullptr;
+  size_t size_ = 0;
+};
+
+template <class T>
+struct alignas(OPTIX_SBT_RECORD_ALIGNMENT) SbtRecord {
+  char header[OPTIX_SBT_RECORD_HEADER_SIZE];
+  T data;
+};
+struct Empty {};
+using EmptyRecord = SbtRecord<Empty>;
+
+void optix_log(unsigned level, const char* tag, const char* message, void*) {
+  std::fprintf(stderr, "optix: [%u][%s] %s\n", level, tag, one_line(message).c_str());
+}
+
+// ---- The backend -------------------------------------------------------------------
+
+enum class SphereMode { Builtin, Custom };
+// Measured on the H100 (software traversal): see src/backends/optix/NOTES.md.
+constexpr SphereMode kDefaultSphereMode = SphereMode::Custom;
+// A W x H launch measured faster than a 1D one on the target scene (NOTES.md).
+constexpr bool kDefaultLaunch2d = true;
+
+class OptixBackendImpl final : public OptixBackend {
+ public:
+  OptixBackendImpl(const Scene& scene, const BackendOptions& options) : scene_(scene) {
+    const Availability& a = availability();
+    if (!a.ok) throw std::runtime_error(a.why);
+    spp_per_launch_ = std::max(0, options.spp_per_launch);
+    // Tuning knobs (see NOTES.md): threads per pixel and launch shape.
+    if (const char* env = std::getenv("PENUMBRA_OPTIX_PIXELS_PER_THREAD")) pixels_per_thread_ = std::max(1, std::atoi(env));
+    if (const char* env = std::getenv("PENUMBRA_OPTIX_LAUNCH")) launch_2d_ = std::string(env) != "1d";
+    size_.meshes = scene.meshes.size();
+    size_.instances = scene.instances.size();
+    size_.spheres = scene.spheres.size();
+    for (const Instance& inst : scene.instances)
+      if (inst.mesh < scene.meshes.size()) size_.triangles += scene.meshes[inst.mesh].indices.size();
+    sphere_mode_ = kDefaultSphereMode;
+    if (const char* env = std::getenv("PENUMBRA_OPTIX_SPHERES")) {
+      std::string v = env;
+      if (v == "builtin") sphere_mode_ = SphereMode::Builtin;
+      else if (v == "custom") sphere_mode_ = SphereMode::Custom;
+      else if (!v.empty())
+        throw std::runtime_error("PENUMBRA_OPTIX_SPHERES must be 'builtin' or 'custom', not '" + v + "'");
+    }
+    try {
+      init_device();
+      build_pipeline();
+      build_scene_data();
+      build_accels();
+      build_sbt();
+    } catch (...) {
+      destroy();
+      throw;
+    }
+  }
+  ~OptixBackendImpl() override { destroy(); }
+
+  std::string name() const override { return "optix"; }
+  std::string device_name() const override {
+    return gpu_name_ + ", driver " + driver_ + ", OptiX " + optix_version_string(OPTIX_VERSION) + ", spheres " +
+           sphere_mode();
+  }
+  std::string sphere_mode() const override { return sphere_mode_ == SphereMode::Builtin ? "builtin" : "custom"; }
+  std::vector<std::pair<std::string, std::string>> device_info() const override {
+    int drv = 0;
+    cudaDriverGetVersion(&drv);
+    return {{"gpu", gpu_name_},
+            {"compute_capability", std::to_string(props_.major) + "." + std::to_string(props_.minor)},
+            {"multiprocessors", std::to_string(props_.multiProcessorCount)},
+            {"gpu_memory", format_bytes(double(props_.totalGlobalMem))},
+            {"driver", driver_},
+            {"cuda_driver_api", std::to_string(drv / 1000) + "." + std::to_string((drv % 1000) / 10)},
+            {"optix", optix_version_string(OPTIX_VERSION) + " (ABI " + std::to_string(OPTIX_ABI_VERSION) + ")"},
+            {"spheres", sphere_mode()}};
+  }
+
+  RenderStats last_render_stats() const override { return stats_; }
+
+  void set_spp_per_launch(int spp) override { spp_per_launch_ = std::max(0, spp); }
+  void set_display(bool enabled, float exposure_stops) override {
+    display_ = enabled;
+    exposure_ = exposure_stops;
+  }
+  uint64_t accumulated_samples() const override { return accumulated_; }
+  const void* device_rgba8() const override { return rgba_.as<void>(); }
+
+  void reset(const FrameSpec& frame) override {
+    const int W = frame.camera.width, H = frame.camera.height;
+    if (W <= 0 || H <= 0) throw std::logic_error("frame size must be positive");
+    const size_t pixels = size_t(W) * size_t(H);
+    if (W != width_ || H != height_) {
+      width_ = W;
+      height_ = H;
+      launch_sum_.alloc(pixels * sizeof(float4), "the per-launch sample sums", size_);
+      launch_sum_sq_.alloc(pixels * sizeof(float4), "the per-launch sample sums", size_);
+      acc_sum_.alloc(pixels * 3 * sizeof(double), "the accumulation buffers", size_);
+      acc_sum_sq_.alloc(pixels * 3 * sizeof(double), "the accumulation buffers", size_);
+      rgba_.release();
+    }
+    PN_CUDA(cudaMemsetAsync(acc_sum_.as<void>(), 0, acc_sum_.size(), stream_));
+    PN_CUDA(cudaMemsetAsync(acc_sum_sq_.as<void>(), 0, acc_sum_sq_.size(), stream_));
+    accumulated_ = 0;
+  }
+
+  void accumulate(const FrameSpec& frame, uint32_t first_sample, uint32_t count,
+                  const ProgressFn& progress) override {
+    const int W = frame.camera.width, H = frame.camera.height;
+    if (W != width_ || H != height_) reset(frame);
+    const size_t pixels = size_t(W) * size_t(H);
+    if (display_) ensure_rgba();
+    stats_ = RenderStats();
+    PN_CUDA(cudaMemsetAsync(counters_.as<void>(), 0, counters_.size(), stream_));
+
+    LaunchParams p = base_params_;
+    p.camera = frame.camera;
+    p.integrator = frame.integrator;
+    p.seed = frame.seed;
+    p.sum = launch_sum_.as<float4>();
+    p.sum_sq = launch_sum_sq_.as<float4>();
+
+    uint32_t per_launch = uint32_t(spp_per_launch_);
+    if (per_launch == 0) {  // automatic: about a million paths per launch
+      size_t want = (size_t(1) << 20) / pixels;
+      per_launch = uint32_t(std::max<size_t>(1, std::min<size_t>(want, 1024)));
+    }
+    per_launch = std::min(per_launch, std::max(count, 1u));
+    const uint32_t launches = count == 0 ? 0 : (count + per_launch - 1) / per_launch;
+    const uint64_t total = uint64_t(pixels) * count;
+    // The strategy's own raygen program.
+    const int strategy = int(frame.integrator.strategy);
+    if (strategy < 0 || strategy >= kNumStrategies) throw std::logic_error("unknown strategy");
+    OptixShaderBindingTable sbt = sbt_;
+    sbt.raygenRecord = sbt_raygen_.dptr() + CUdeviceptr(strategy) * sizeof(EmptyRecord);
+    // A W x H launch, or a 1D launch of pixels / pixels_per_thread threads
+    // (see render_pixels in device_programs.cu).
+    const bool launch_2d = launch_2d_ && pixels_per_thread_ == 1;
+    const unsigned launch_x = launch_2d ? unsigned(W)
+                                        : unsigned(std::max<size_t>(1, (pixels + size_t(pixels_per_thread_) - 1) /
+                                                                           size_t(pixels_per_thread_)));
+    const unsigned launch_y = launch_2d ? unsigned(H) : 1u;
+    stats_.launches.resize(launches);
+
+    // Launch j uses event slot j % kSlots; launches run ahead of the host by at
+    // most kInFlight, and the host reads each launch's times when it finishes.
+    uint32_t collected = 0;
+    uint64_t samples_done = 0;
+    auto collect = [&](uint32_t j) {
+      Slot& s = slots_[j % kSlots];
+      PN_CUDA(cudaEventSynchronize(s.end));
+      float trace = 0.f, acc = 0.f;
+      PN_CUDA(cudaEventElapsedTime(&trace, s.start, s.traced));
+      PN_CUDA(cudaEventElapsedTime(&acc, s.traced, s.end));
+      stats_.launches[j].trace_ms = trace;
+      stats_.launches[j].accumulate_ms = acc;
+      samples_done += stats_.launches[j].spp;
+      if (progress) progress(samples_done * pixels, total);
+    };
+    for (uint32_t j = 0; j < launches; ++j) {
+      if (j >= kInFlight) collect(collected++);
+      const uint32_t spp = std::min(per_launch, count - j * per_launch);
+      p.first_sample = first_sample + j * per_launch;
+      p.spp = spp;
+      stats_.launches[j].spp = spp;
+      Slot& s = slots_[j % kSlots];
+      // Ordered after the previous launch on the stream; the host copy is staged
+      // before cudaMemcpyAsync returns, so `p` may change right after.
+      PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
+      PN_CUDA(cudaEventRecord(s.start, stream_));
+      PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, launch_x, launch_y, 1));
+      PN_CUDA(cudaEventRecord(s.traced, stream_));
+      accumulated_ += spp;
+      const float scale = std::exp2(exposure_) / float(accumulated_);
+      PN_CUDA(optix::launch_accumulate(launch_sum_.as<float4>(), launch_sum_sq_.as<float4>(), pixels,
+                                       acc_sum_.as<double>(), acc_sum_sq_.as<double>(),
+                                       counters_.as<unsigned long long>(), display_ ? rgba_.as<uchar4>() : nullptr,
+                                       scale, props_.multiProcessorCount, stream_));
+      PN_CUDA(cudaEventRecord(s.end, stream_));
+    }
+    while (collected < launches) collect(collected++);
+    PN_CUDA(cudaStreamSynchronize(stream_));
+    unsigned long long counters[2] = {0, 0};
+    PN_CUDA(cudaMemcpy(counters, counters_.as<void>(), sizeof counters, cudaMemcpyDeviceToHost));
+    stats_.rays = counters[0];
+    nonfinite_ = counters[1];
+  }
+
+  void render(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
+              const ProgressFn& progress) override {
+    const int W = frame.camera.width, H = frame.camera.height;
+    if (film.width() != W || film.height() != H) throw std::logic_error("film size differs from the camera's");
+    reset(frame);
+    accumulate(frame, first_sample, count, progress);
+    const size_t n = size_t(W) * size_t(H) * 3;
+    host_.resize(n);
+    PN_CUDA(cudaMemcpy(host_.data(), acc_sum_.as<void>(), n * sizeof(double), cudaMemcpyDeviceToHost));
+    double* sum = film.sum();
+    for (size_t i = 0; i < n; ++i) sum[i] += host_[i];
+    PN_CUDA(cudaMemcpy(host_.data(), acc_sum_sq_.as<void>(), n * sizeof(double), cudaMemcpyDeviceToHost));
+    double* sum_sq = film.sum_sq();
+    for (size_t i = 0; i < n; ++i) sum_sq[i] += host_[i];
+    film.add_samples(count);
+    if (nonfinite_ > 0)
+      throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite_) +
+                               " samples were NaN or infinite (a bug in penumbra: please report the scene)");
+  }
+
+  void tonemap(float exposure_stops) override {
+    if (width_ <= 0) throw std::logic_error("tonemap() before any frame");
+    ensure_rgba();
+    const size_t pixels = size_t(width_) * size_t(height_);
+    const float scale = accumulated_ ? std::exp2(exposure_stops) / float(accumulated_) : 0.f;
+    PN_CUDA(optix::launch_tonemap(acc_sum_.as<double>(), pixels, scale, rgba_.as<uchar4>(),
+                                  props_.multiProcessorCount, stream_));
+    PN_CUDA(cudaStreamSynchronize(stream_));
+  }
+
+  std::vector<uint8_t> download_rgba8() const override {
+    std::vector<uint8_t> out;
+    if (!rgba_.size()) return out;
+    out.resize(rgba_.size());
+    PN_CUDA(cudaStreamSynchronize(stream_));
+    PN_CUDA(cudaMemcpy(out.data(), rgba_.as<void>(), out.size(), cudaMemcpyDeviceToHost));
+    return out;
+  }
+
+ private:
+  static constexpr uint32_t kSlots = 8, kInFlight = 3;
+  struct Slot {
+    cudaEvent_t start = nullptr, traced = nullptr, end = nullptr;
+  };
+
+  void init_device() {
+    PN_CUDA(cudaSetDevice(0));
+    PN_CUDA(cudaFree(nullptr));  // creates the primary context
+    PN_CUDA(cudaGetDeviceProperties(&props_, 0));
+    gpu_name_ = props_.name;
+    driver_ = driver_version();
+    PN_CUDA(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    for (Slot& s : slots_) {
+      PN_CUDA(cudaEventCreate(&s.start));
+      PN_CUDA(cudaEventCreate(&s.traced));
+      PN_CUDA(cudaEventCreate(&s.end));
+    }
+    OptixDeviceContextOptions o = {};
+    o.logCallbackFunction = &optix_log;
+    o.logCallbackLevel = 2;  // errors
+    PN_OPTIX(optixDeviceContextCreate(nullptr, &o, &context_));
+    params_.alloc(sizeof(LaunchParams), "the launch parameters", size_);
+    counters_.alloc(2 * sizeof(unsigned long long), "the ray counters", size_);
+  }
+
+  void build_pipeline() {
+    OptixModuleCompileOptions mco = {};
+    mco.maxRegisterCount = OPTIX_COMPILE_DEFAULT_MAX_REGISTER_COUNT;
+    if (const char* env = std::getenv("PENUMBRA_OPTIX_MAXREG")) mco.maxRegisterCount = std::atoi(env);  // tuning
+    mco.optLevel = OPTIX_COMPILE_OPTIMIZATION_DEFAULT;
+    mco.debugLevel = OPTIX_COMPILE_DEBUG_LEVEL_MINIMAL;
+
+    OptixPipelineCompileOptions pco = {};
+    pco.usesMotionBlur = 0;
+    pco.traversableGraphFlags = OPTIX_TRAVERSABLE_GRAPH_FLAG_ALLOW_SINGLE_LEVEL_INSTANCING;
+    pco.numPayloadValues = 9;
+    pco.numAttributeValues = 2;
+    pco.exceptionFlags = OPTIX_EXCEPTION_FLAG_NONE;
+    pco.pipelineLaunchParamsVariableName = "params";
+    pco.usesPrimitiveTypeFlags = OPTIX_PRIMITIVE_TYPE_FLAGS_TRIANGLE |
+                                 (sphere_mode_ == SphereMode::Builtin ? OPTIX_PRIMITIVE_TYPE_FLAGS_SPHERE
+                                                                      : OPTIX_PRIMITIVE_TYPE_FLAGS_CUSTOM);
+
+    char log[4096];
+    size_t log_size = sizeof log;
+    log[0] = 0;
+    PN_OPTIX_LOG(optixModuleCreate(context_, &mco, &pco, reinterpret_cast<const char*>(penumbra_optix_ir),
+                                   penumbra_optix_ir_size, log, &log_size, &module_),
+                 log);
+    if (sphere_mode_ == SphereMode::Builtin) {
+      OptixBuiltinISOptions bo = {};
+      bo.builtinISModuleType = OPTIX_PRIMITIVE_TYPE_SPHERE;
+      bo.usesMotionBlur = 0;
+      bo.buildFlags = kGasBuildFlags;
+      PN_OPTIX(optixBuiltinISModuleGet(context_, &mco, &pco, &bo, &sphere_is_module_));
+    }
+
+    OptixProgramGroupOptions pgo = {};
+    auto make_group = [&](const OptixProgramGroupDesc& d, OptixProgramGroup* g) {
+      log_size = sizeof log;
+      log[0] = 0;
+      PN_OPTIX_LOG(optixProgramGroupCreate(context_, &d, 1, &pgo, log, &log_size, g), log);
+    };
+    // One raygen program per strategy, named after the registry's enum.
+    OptixProgramGroupDesc d = {};
+    static const char* const raygen_names[] = {
+#define PN_X(e, name, fn, nee, desc) "__raygen__" #e,
+        PN_STRATEGIES(PN_X)
+#undef PN_X
+    };
+    raygen_.assign(kNumStrategies, nullptr);
+    for (int i = 0; i < kNumStrategies; ++i) {
+      d = {};
+      d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
+      d.raygen.module = module_;
+      d.raygen.entryFunctionName = raygen_names[i];
+      make_group(d, &raygen_[i]);
+    }
+
+    d = {};
+    d.kind = OPTIX_PROGRAM_GROUP_KIND_MISS;
+    d.miss.module = module_;
+    d.miss.entryFunctionName = "__miss__radiance";
+    make_group(d, &miss_[optix::kMissRadiance]);
+    d.miss.entryFunctionName = "__miss__shadow";
+    make_group(d, &miss_[optix::kMissShadow]);
+
+    d = {};
+    d.kind = OPTIX_PROGRAM_GROUP_KIND_HITGROUP;
+    d.hitgroup.moduleCH = module_;
+    d.hitgroup.entryFunctionNameCH = "__closesthit__mesh";
+    make_group(d, &hit_[optix::kHitGroupMesh]);
+
+    d = {};
+    d.kind = OPTIX_PROGRAM_GROUP_KIND_HITGROUP;
+    d.hitgroup.moduleCH = module_;
+    d.hitgroup.entryFunctionNameCH = "__closesthit__sphere";
+    if (sphere_mode_ == SphereMode::Builtin) {
+      d.hitgroup.moduleIS = sphere_is_module_;
+      d.hitgroup.entryFunctionNameIS = nullptr;
+    } else {
+      d.hitgroup.moduleIS = module_;
+      d.hitgroup.entryFunctionNameIS = "__intersection__sphere";
+    }
+    make_group(d, &hit_[optix::kHitGroupSphere]);
+
+    std::vector<OptixProgramGroup> groups = raygen_;
+    for (OptixProgramGroup g : {miss_[0], miss_[1], hit_[0], hit_[1]}) groups.push_back(g);
+    OptixPipelineLinkOptions plo = {};
+    plo.maxTraceDepth = 1;
+    log_size = sizeof log;
+    log[0] = 0;
+    PN_OPTIX_LOG(optixPipelineCreate(context_, &pco, &plo, groups.data(), unsigned(groups.size()), log, &log_size,
+                                     &pipeline_),
+                 log);
+
+    OptixStackSizes ss = {};
+    for (OptixProgramGroup g : groups) PN_OPTIX(optixUtilAccumulateStackSizes(g, &ss, pipeline_));
+    unsigned dc_traversal = 0, dc_state = 0, continuation = 0;
+    PN_OPTIX(optixUtilComputeStackSizes(&ss, 1, 0, 0, &dc_traversal, &dc_state, &continuation));
+    // Graph depth 2: IAS -> GAS.
+    PN_OPTIX(optixPipelineSetStackSize(pipeline_, dc_traversal, dc_state, continuation, 2));
+  }
+
+  void build_scene_data() {
+    // Mesh geometry on the device, once per mesh; instances refer to it.
+    mesh_vertices_.resize(scene_.meshes.size());
+    mesh_indices_.resize(scene_.meshes.size());
+    for (size_t m = 0; m < scene_.meshes.size(); ++m) {
+      const TriangleMesh& mesh = scene_.meshes[m];
+      mesh_vertices_[m].upload(mesh.positions, "mesh vertices", size_);
+      mesh_indices_[m].upload(mesh.indices, "mesh indices", size_);
+    }
+    std::vector<DeviceInstance> instances;
+    instances.reserve(scene_.instances.size());
+    for (const Instance& inst : scene_.instances) {
+      DeviceInstance d;
+      d.to_world = inst.to_world;
+      d.to_object = inst.to_object;
+      d.positions = mesh_vertices_.at(inst.mesh).as<Vec3>();
+      d.indices = mesh_indices_.at(inst.mesh).as<uint32_t>();
+      d.material = inst.material;
+      d.light = inst.light;
+      instances.push_back(d);
+    }
+    instances_.upload(instances, "instance records", size_);
+    std::vector<DeviceSphere> spheres;
+    for (const Sphere& s : scene_.spheres) {
+      DeviceSphere d;
+      d.center = s.center;
+      d.radius = s.radius;
+      d.material = s.material;
+      d.light = s.light;
+      spheres.push_back(d);
+    }
+    spheres_.upload(spheres, "sphere records", size_);
+    lights_.upload(scene_.lights, "lights", size_);
+    materials_.upload(scene_.materials, "materials", size_);
+
+    base_params_.scene.lights = lights_.as<Light>();
+    base_params_.scene.num_lights = uint32_t(scene_.lights.size());
+    base_params_.scene.materials = materials_.as<Material>();
+    base_params_.scene.num_materials = uint32_t(scene_.materials.size());
+    base_params_.scene.background = scene_.background;
+    base_params_.instances = instances_.as<DeviceInstance>();
+    base_params_.spheres = spheres_.as<DeviceSphere>();
+  }
+
+  // Builds one acceleration structure into `out`; compacts GASes.
+  OptixTraversableHandle build_accel(const OptixBuildInput& input, unsigned flags, bool compact, DeviceBuffer* out,
+                                     const char* what) {
+    OptixAccelBuildOptions o = {};
+    o.buildFlags = flags | (compact ? unsigned(OPTIX_BUILD_FLAG_ALLOW_COMPACTION) : 0u);
+    o.operation = OPTIX_BUILD_OPERATION_BUILD;
+    OptixAccelBufferSizes sizes = {};
+    PN_OPTIX(optixAccelComputeMemoryUsage(context_, &o, &input, 1, &sizes));
+    DeviceBuffer temp, full;
+    temp.alloc(std::max<size_t>(sizes.tempSizeInBytes, 8), what, size_);
+    full.alloc(sizes.outputSizeInBytes, what, size_);
+    OptixAccelEmitDesc emit = {};
+    emit.type = OPTIX_PROPERTY_TYPE_COMPACTED_SIZE;
+    emit.result = compacted_size_.dptr();
+    OptixTraversableHandle handle = 0;
+    PN_OPTIX(optixAccelBuild(context_, stream_, &o, &input, 1, temp.dptr(), temp.size(), full.dptr(), full.size(),
+                             &handle, compact ? &emit : nullptr, compact ? 1 : 0));
+    PN_CUDA(cudaStreamSynchronize(stream_));
+    if (!compact) {
+      *out = std::move(full);
+      return handle;
+    }
+    uint64_t compacted = 0;
+    PN_CUDA(cudaMemcpy(&compacted, compacted_size_.as<void>(), sizeof compacted, cudaMemcpyDeviceToHost));
+    if (compacted == 0 || compacted >= full.size()) {
+      *out = std::move(full);
+      return handle;
+    }
+    out->alloc(compacted, what, size_);
+    PN_OPTIX(optixAccelCompact(context_, stream_, handle, out->dptr(), out->size(), &handle));
+    PN_CUDA(cudaStreamSynchronize(stream_));
+    return handle;
+  }
+
+  void build_accels() {
+    compacted_size_.alloc(sizeof(uint64_t), "acceleration structure sizes", size_);
+    const unsigned geometry_flags = OPTIX_GEOMETRY_FLAG_DISABLE_ANYHIT;
+
+    // One GAS per used, non-empty mesh.
+    std::vector<bool> used(scene_.meshes.size(), false);
+    for (const Instance& inst : scene_.instances) used.at(inst.mesh) = true;
+    mesh_gas_.resize(scene_.meshes.size());
+    std::vector<OptixTraversableHandle> mesh_handle(scene_.meshes.size(), 0);
+    for (size_t m = 0; m < scene_.meshes.size(); ++m) {
+      const TriangleMesh& mesh = scene_.meshes[m];
+      if (!used[m] || mesh.indices.empty() || mesh.positions.empty()) continue;
+      OptixBuildInput in = {};
+      in.type = OPTIX_BUILD_INPUT_TYPE_TRIANGLES;
+      CUdeviceptr vertices = mesh_vertices_[m].dptr();
+      in.triangleArray.vertexFormat = OPTIX_VERTEX_FORMAT_FLOAT3;
+      in.triangleArray.vertexStrideInBytes = sizeof(Vec3);
+      in.triangleArray.numVertices = unsigned(mesh.positions.size());
+      in.triangleArray.vertexBuffers = &vertices;
+      in.triangleArray.indexFormat = OPTIX_INDICES_FORMAT_UNSIGNED_INT3;
+      in.triangleArray.indexStrideInBytes = 3 * sizeof(uint32_t);
+      in.triangleArray.numIndexTriplets = unsigned(mesh.indices.size());
+      in.triangleArray.indexBuffer = mesh_indices_[m].dptr();
+      in.triangleArray.flags = &geometry_flags;
+      in.triangleArray.numSbtRecords = 1;
+      mesh_handle[m] = build_accel(in, kGasBuildFlags, true, &mesh_gas_[m], "a mesh's acceleration structure");
+    }
+
+    // The spheres' GAS, world space.
+    OptixTraversableHandle sphere_handle = 0;
+    if (!scene_.spheres.empty()) {
+      const size_t n = scene_.spheres.size();
+      OptixBuildInput in = {};
+      DeviceBuffer centers, radii, aabbs;
+      CUdeviceptr centers_ptr = 0, radii_ptr = 0, aabbs_ptr = 0;
+      if (sphere_mode_ == SphereMode::Builtin) {
+        std::vector<Vec3> c(n);
+        std::vector<float> r(n);
+        for (size_t i = 0; i < n; ++i) c[i] = scene_.spheres[i].center, r[i] = scene_.spheres[i].radius;
+        centers.upload(c, "sphere centres", size_);
+        radii.upload(r, "sphere radii", size_);
+        centers_ptr = centers.dptr();
+        radii_ptr = radii.dptr();
+        in.type = OPTIX_BUILD_INPUT_TYPE_SPHERES;
+        in.sphereArray.vertexBuffers = &centers_ptr;
+        in.sphereArray.vertexStrideInBytes = sizeof(Vec3);
+        in.sphereArray.numVertices = unsigned(n);
+        in.sphereArray.radiusBuffers = &radii_ptr;
+        in.sphereArray.radiusStrideInBytes = sizeof(float);
+        in.sphereArray.singleRadius = 0;
+        in.sphereArray.flags = &geometry_flags;
+        in.sphereArray.numSbtRecords = 1;
+      } else {
+        std::vector<OptixAabb> boxes(n);
+        for (size_t i = 0; i < n; ++i) {
+          const Sphere& s = scene_.spheres[i];
+          const float r = s.radius * 1.0001f;  // as the CPU's bounds: t may land a little outside
+          boxes[i] = {s.center.x - r, s.center.y - r, s.center.z - r, s.center.x + r, s.center.y + r, s.center.z + r};
+        }
+        aabbs.upload(boxes, "sphere bounds", size_);
+        aabbs_ptr = aabbs.dptr();
+        in.type = OPTIX_BUILD_INPUT_TYPE_CUSTOM_PRIMITIVES;
+        in.customPrimitiveArray.aabbBuffers = &aabbs_ptr;
+        in.customPrimitiveArray.numPrimitives = unsigned(n);
+        in.customPrimitiveArray.strideInBytes = sizeof(OptixAabb);
+        in.customPrimitiveArray.flags = &geometry_flags;
+        in.customPrimitiveArray.numSbtRecords = 1;
+      }
+      sphere_handle = build_accel(in, kGasBuildFlags, true, &sphere_gas_, "the spheres' acceleration structure");
+    }
+
+    // The IAS: every placement of a mesh, plus the spheres' GAS once with the identity.
+    std::vector<OptixInstance> instances;
+    const Affine identity;
+    for (size_t i = 0; i < scene_.instances.size(); ++i) {
+      const Instance& inst = scene_.instances[i];
+      if (!mesh_handle[inst.mesh]) continue;
+      OptixInstance o = {};
+      std::memcpy(o.transform, inst.to_world.m, sizeof o.transform);
+      o.instanceId = unsigned(i);
+      o.sbtOffset = optix::kHitGroupMesh;
+      o.visibilityMask = 255;
+      o.flags = OPTIX_INSTANCE_FLAG_DISABLE_ANYHIT;
+      o.traversableHandle = mesh_handle[inst.mesh];
+      instances.push_back(o);
+    }
+    if (sphere_handle) {
+      OptixInstance o = {};
+      std::memcpy(o.transform, identity.m, sizeof o.transform);
+      o.instanceId = unsigned(scene_.instances.size());
+      o.sbtOffset = optix::kHitGroupSphere;
+      o.visibilityMask = 255;
+      o.flags = OPTIX_INSTANCE_FLAG_DISABLE_ANYHIT;
+      o.traversableHandle = sphere_handle;
+      instances.push_back(o);
+    }
+    if (instances.empty()) {
+      base_params_.handle = 0;  // nothing to hit: every ray runs the miss program
+      return;
+    }
+    DeviceBuffer ias_instances;
+    ias_instances.upload(instances, "the instance list", size_);
+    OptixBuildInput in = {};
+    in.type = OPTIX_BUILD_INPUT_TYPE_INSTANCES;
+    in.instanceArray.instances = ias_instances.dptr();
+    in.instanceArray.numInstances = unsigned(instances.size());
+    base_params_.handle = build_accel(in, OPTIX_BUILD_FLAG_PREFER_FAST_TRACE, false, &ias_, "the instance acceleration structure");
+  }
+
+  void build_sbt() {
+    std::vector<EmptyRecord> rg(raygen_.size());
+    for (size_t i = 0; i < raygen_.size(); ++i) PN_OPTIX(optixSbtRecordPackHeader(raygen_[i], &rg[i]));
+    std::vector<EmptyRecord> miss(optix::kNumMissPrograms), hit(optix::kNumHitGroups);
+    for (uint32_t i = 0; i < optix::kNumMissPrograms; ++i) PN_OPTIX(optixSbtRecordPackHeader(miss_[i], &miss[i]));
+    for (uint32_t i = 0; i < optix::kNumHitGroups; ++i) PN_OPTIX(optixSbtRecordPackHeader(hit_[i], &hit[i]));
+    sbt_raygen_.upload(rg, "the shader binding table", size_);
+    sbt_miss_.upload(miss, "the shader binding table", size_);
+    sbt_hit_.upload(hit, "the shader binding table", size_);
+    sbt_ = {};
+    sbt_.raygenRecord = sbt_raygen_.dptr();
+    sbt_.missRecordBase = sbt_miss_.dptr();
+    sbt_.missRecordStrideInBytes = sizeof(EmptyRecord);
+    sbt_.missRecordCount = optix::kNumMissPrograms;
+    sbt_.hitgroupRecordBase = sbt_hit_.dptr();
+    sbt_.hitgroupRecordStrideInBytes = sizeof(EmptyRecord);
+    sbt_.hitgroupRecordCount = optix::kNumHitGroups;
+  }
+
+  void ensure_rgba() {
+    if (!rgba_.size()) rgba_.alloc(size_t(width_) * size_t(height_) * 4, "the display image", size_);
+  }
+
+  // Releases everything; used by the destructor and a failed constructor, so it
+  // ignores errors (a sticky CUDA error must not hide the first message).
+  void destroy() {
+    if (stream_) cudaStreamSynchronize(stream_);
+    if (pipeline_) optixPipelineDestroy(pipeline_);
+    for (OptixProgramGroup g : raygen_)
+      if (g) optixProgramGroupDestroy(g);
+    raygen_.clear();
+    for (OptixProgramGroup g : {miss_[0], miss_[1], hit_[0], hit_[1]})
+      if (g) optixProgramGroupDestroy(g);
+    if (module_) optixModuleDestroy(module_);
+    // The built-in IS module belongs to the context.
+    if (context_) optixDeviceContextDestroy(context_);
+    pipeline_ = nullptr;
+    miss_[0] = miss_[1] = hit_[0] = hit_[1] = nullptr;
+    module_ = sphere_is_module_ = nullptr;
+    context_ = nullptr;
+    for (Slot& s : slots_) {
+      for (cudaEvent_t* e : {&s.start, &s.traced, &s.end})
+        if (*e) cudaEventDestroy(*e), *e = nullptr;
+    }
+    mesh_gas_.clear();
+    mesh_vertices_.clear();
+    mesh_indices_.clear();
+    for (DeviceBuffer* b : {&sphere_gas_, &ias_, &instances_, &spheres_, &lights_, &materials_, &params_, &counters_,
+                            &compacted_size_, &sbt_raygen_, &sbt_miss_, &sbt_hit_, &launch_sum_, &launch_sum_sq_,
+                            &acc_sum_, &acc_sum_sq_, &rgba_})
+      b->release();
+    if (stream_) cudaStreamDestroy(stream_);
+    stream_ = nullptr;
+  }
+
+  static constexpr unsigned kGasBuildFlags = OPTIX_BUILD_FLAG_PREFER_FAST_TRACE;
+
+  const Scene& scene_;
+  SceneSize size_;
+  SphereMode sphere_mode_ = SphereMode::Custom;
+  int spp_per_launch_ = 0;
+  int pixels_per_thread_ = 1;
+  bool launch_2d_ = kDefaultLaunch2d;
+  bool display_ = false;
+  float exposure_ = 0.f;
+
+  cudaDeviceProp props_ = {};
+  std::string gpu_name_, driver_;
+  cudaStream_t stream_ = nullptr;
+  Slot slots_[kSlots];
+  OptixDeviceContext context_ = nullptr;
+  OptixModule module_ = nullptr, sphere_is_module_ = nullptr;
+  std::vector<OptixProgramGroup> raygen_;  // one per strategy
+  OptixProgramGroup miss_[optix::kNumMissPrograms] = {}, hit_[optix::kNumHitGroups] = {};
+  OptixPipeline pipeline_ = nullptr;
+  OptixShaderBindingTable sbt_ = {};
+
+  std::vector<DeviceBuffer> mesh_vertices_, mesh_indices_, mesh_gas_;
+  DeviceBuffer sphere_gas_, ias_, instances_, spheres_, lights_, materials_;
+  DeviceBuffer params_, counters_, compacted_size_, sbt_raygen_, sbt_miss_, sbt_hit_;
+  DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, rgba_;
+  LaunchParams base_params_;
+
+  int width_ = 0, height_ = 0;
+  uint64_t accumulated_ = 0;
+  uint64_t nonfinite_ = 0;
+  RenderStats stats_;
+  std::vector<double> host_;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> make_optix_backend(const Scene& scene, const BackendOptions& options) {
+  return std::make_unique<OptixBackendImpl>(scene, options);
+}
+
+std::unique_ptr<Backend> make_optix_backend(const Scene& scene) { return make_optix_backend(scene, BackendOptions()); }
+
+bool optix_available(std::string* why) {
+  const Availability& a = availability();
+  if (why) *why = a.ok ? std::string() : a.why;
+  return a.ok;
+}
+
+}  // namespace pn

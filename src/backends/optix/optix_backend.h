@@ -1,0 +1,59 @@
+// The GPU backend: OptiX 9 over CUDA. The same integrator as the CPU backend
+// (core/integrator.h runs in the raygen program), one GAS per mesh (compacted),
+// one GAS of spheres, an IAS over every instance, progressive accumulation of
+// per-pixel sums and sums of squares in device memory.
+//
+// This header has no CUDA or OptiX types, so any C++ code may include it.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "render/backend.h"
+
+namespace pn {
+
+// The progressive interface a viewer uses: accumulate on the device across
+// launches, tone-map on the device, fetch 8-bit RGBA. render() (the Backend
+// interface) is built from the same calls and adds the sums into a Film.
+class OptixBackend : public Backend {
+ public:
+  // Zeroes the device accumulation for a frame of the camera's size.
+  virtual void reset(const FrameSpec& frame) = 0;
+  // Adds samples [first_sample, first_sample + count) of every pixel to the device
+  // accumulation, spp_per_launch() samples per launch; `progress` after each launch.
+  virtual void accumulate(const FrameSpec& frame, uint32_t first_sample, uint32_t count,
+                          const ProgressFn& progress = nullptr) = 0;
+  // Samples per pixel accumulated on the device since reset().
+  virtual uint64_t accumulated_samples() const = 0;
+  // Also tone-map the accumulation to 8-bit sRGB RGBA after every launch (as a
+  // viewer does), with the given exposure in stops. Off by default.
+  virtual void set_display(bool enabled, float exposure_stops = 0.f) = 0;
+  // Tone-maps the accumulation now (sum / samples, x 2^exposure, sRGB, 8 bit).
+  virtual void tonemap(float exposure_stops) = 0;
+  // The RGBA8 image on the device (a CUdeviceptr / uchar4*, width*height, row 0
+  // at the top); valid after tonemap() or a launch with display on.
+  virtual const void* device_rgba8() const = 0;
+  virtual std::vector<uint8_t> download_rgba8() const = 0;
+  // Samples per pixel per launch; 0 = automatic (1 at 1 Mpixel and above, more
+  // for small images so that each launch still fills the GPU).
+  virtual void set_spp_per_launch(int spp) = 0;
+  // "builtin" or "custom": how spheres are intersected (OptiX built-in sphere
+  // primitives or a custom intersection program running core/geometry.h).
+  virtual std::string sphere_mode() const = 0;
+};
+
+// Builds the backend for `scene` on GPU 0. Throws std::runtime_error with one
+// line (no GPU or driver, OptiX ABI not supported by the driver, out of GPU
+// memory with the scene's size, any failed CUDA or OptiX call).
+// PENUMBRA_OPTIX_SPHERES=builtin|custom overrides how spheres are intersected.
+std::unique_ptr<Backend> make_optix_backend(const Scene& scene);
+std::unique_ptr<Backend> make_optix_backend(const Scene& scene, const BackendOptions& options);
+
+// True when a GPU, its driver and OptiX can be used; otherwise false with the
+// reason in one line in *why.
+bool optix_available(std::string* why);
+
+}  // namespace pn
