@@ -19,14 +19,14 @@ import shutil
 import subprocess
 import sys
 
-import numpy as np
-
-try:  # only the report needs matplotlib (--no-report runs without it)
+try:  # only the report needs numpy and matplotlib (--no-report runs without them)
+    import numpy as np
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 except ImportError:
-    plt = None
+    np = plt = None
 
 STRATEGIES = ["area", "solid-angle"]
 COLORS = {"area": "#d62728", "solid-angle": "#1f77b4"}
@@ -164,6 +164,7 @@ def plot_sweep(xs, runs, xlabel, title, path, log_x=True):
     ax.axhline(1.0, color="grey", lw=0.8, ls=":")
     if log_x:
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     ax.set_yscale("log")
     ax.set_xlabel(xlabel)
     ax.set_ylabel("efficiency solid-angle / area")
@@ -286,6 +287,9 @@ def write_report(args, preset, head, radius_runs, near_runs, slat_runs, radii, n
         w("Crops around the light of cornell-near, one seed, with per-pixel error maps on a shared scale. Full images: "
           f"`runs/{near[0]['name']}/image_*_32spp.png`.\n")
 
+    if os.path.exists(os.path.join(args.out, "DISCUSSION.md")):
+        w("## Discussion\n")
+        w("How these numbers compare with the thesis, and what they say: [DISCUSSION.md](DISCUSSION.md).\n")
     w("## Radius sweep (cornell-sphere, constant power)\n")
     rd = [r / light_distance((2.78, 4.4, 2.8)) for r in radii]
     plot_sweep(rd, radius_runs, "r / d (d: light centre to the ceiling)", "cornell-sphere: radius sweep",
@@ -364,7 +368,8 @@ def main():
     if not args.report_only and not os.path.exists(args.penumbra):
         sys.exit(f"study: {args.penumbra}: no such executable (build first, or pass --penumbra)")
     if plt is None and not args.no_report:
-        sys.exit("study: matplotlib is missing (python3 -m pip install matplotlib), or use --no-report")
+        sys.exit("study: numpy and matplotlib are needed for the report (python3 -m pip install numpy matplotlib), "
+                 "or use --no-report")
     preset = PRESETS[args.preset]
     os.makedirs(args.out, exist_ok=True)
     head = [converge(args, s, s, preset["headline"]) for s in HEADLINE] if args.only != "sweeps" else []
