@@ -290,39 +290,31 @@ def write_report(args, preset, head, radius_runs, near_runs, slat_runs, radii, n
     if os.path.exists(os.path.join(args.out, "DISCUSSION.md")):
         w("## Discussion\n")
         w("How these numbers compare with the thesis, and what they say: [DISCUSSION.md](DISCUSSION.md).\n")
-    w("## Radius sweep (cornell-sphere, constant power)\n")
+    def sweep(title, runs, xs, xlabel, plot_title, figure, columns):
+        """A sweep's figure and table; columns: (header, values) shown before the measured ones."""
+        w(f"## {title}\n")
+        plot_sweep(xs, runs, xlabel, plot_title, os.path.join(fig_dir, figure))
+        w(f"![{title}](figures/{figure})\n")
+        w("| " + " | ".join([h for h, _ in columns] + ["efficiency ratio", "(no light px)", "speed-up"]) + " |")
+        w("|" + " ---: |" * (len(columns) + 3))
+        for i, run in enumerate(runs):
+            cells = [v[i] for _, v in columns]
+            cells += [fmt(efficiency_ratio(run)), fmt(efficiency_ratio(run, "efficiency_nolight")), fmt(speedup(run))]
+            w("| " + " | ".join(cells) + " |")
+        w("")
+
     rd = [r / light_distance((2.78, 4.4, 2.8)) for r in radii]
-    plot_sweep(rd, radius_runs, "r / d (d: light centre to the ceiling)", "cornell-sphere: radius sweep",
-               os.path.join(fig_dir, "sweep_radius.png"))
-    w("![radius sweep](figures/sweep_radius.png)\n")
-    w("| radius | r/d | efficiency ratio | (no light px) | speed-up to RMSE threshold |")
-    w("| ---: | ---: | ---: | ---: | ---: |")
-    for r, x, run in zip(radii, rd, radius_runs):
-        w(f"| {r} | {x:.3f} | {fmt(efficiency_ratio(run))} | {fmt(efficiency_ratio(run, 'efficiency_nolight'))} | "
-          f"{fmt(speedup(run))} |")
-    w("")
-    w("## Distance sweep (cornell-near, light moved away from the back wall)\n")
-    kd = [1 / k for k in near_k]
-    plot_sweep(kd, near_runs, "r / d (d: light centre to the back wall)", "cornell-near: distance sweep",
-               os.path.join(fig_dir, "sweep_distance.png"))
-    w("![distance sweep](figures/sweep_distance.png)\n")
-    w("| d / r | efficiency ratio | (no light px) | speed-up |")
-    w("| ---: | ---: | ---: | ---: |")
-    for k, run in zip(near_k, near_runs):
-        w(f"| {k} | {fmt(efficiency_ratio(run))} | {fmt(efficiency_ratio(run, 'efficiency_nolight'))} | {fmt(speedup(run))} |")
-    w("")
-    w("## Occlusion study (occlusion scene, slat width varied)\n")
+    sweep("Radius sweep (cornell-sphere, constant power)", radius_runs, rd, "r / d (d: light centre to the ceiling)",
+          "cornell-sphere: radius sweep", "sweep_radius.png",
+          [("radius", [str(r) for r in radii]), ("r/d", [f"{x:.3f}" for x in rd])])
+    sweep("Distance sweep (cornell-near, light moved away from the back wall)", near_runs, [1 / k for k in near_k],
+          "r / d (d: light centre to the back wall)", "cornell-near: distance sweep", "sweep_distance.png",
+          [("d / r", [str(k) for k in near_k])])
     pitch = 0.25
     open_frac = [((pitch - wd) / pitch) ** 2 for wd in widths]
-    plot_sweep(open_frac, slat_runs, "open fraction of the blinds", "occlusion: how much light gets through",
-               os.path.join(fig_dir, "sweep_occlusion.png"))
-    w("![occlusion](figures/sweep_occlusion.png)\n")
-    w("| slat width | open fraction | efficiency ratio | (no light px) | speed-up |")
-    w("| ---: | ---: | ---: | ---: | ---: |")
-    for wd, of, run in zip(widths, open_frac, slat_runs):
-        w(f"| {wd} | {of:.3f} | {fmt(efficiency_ratio(run))} | {fmt(efficiency_ratio(run, 'efficiency_nolight'))} | "
-          f"{fmt(speedup(run))} |")
-    w("")
+    sweep("Occlusion study (occlusion scene, slat width varied)", slat_runs, open_frac, "open fraction of the blinds",
+          "occlusion: how much light gets through", "sweep_occlusion.png",
+          [("slat width", [str(wd) for wd in widths]), ("open fraction", [f"{of:.3f}" for of in open_frac])])
     with open(os.path.join(args.out, "README.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     # Every summary in one file, for plotting elsewhere.

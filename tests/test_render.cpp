@@ -20,6 +20,14 @@ Film render(const Scene& s, int threads = 0, uint32_t first = 0, uint32_t count 
   return film;
 }
 
+// gtest names may not contain '-': "cornell-near" -> "cornell_near".
+std::string param_name(const ::testing::TestParamInfo<std::string>& info) {
+  std::string n = info.param;
+  for (char& c : n)
+    if (c == '-') c = '_';
+  return n;
+}
+
 Scene small(const std::string& name, const std::string& strategy, int spp, std::vector<std::string> extra = {}) {
   std::vector<std::string> o = {"render.width=64", "render.height=64", "render.spp=" + std::to_string(spp),
                                 "render.strategy=" + strategy, "render.seed=" + std::to_string(strategy.size())};
@@ -53,11 +61,7 @@ TEST_P(StrategiesAgree, BsdfStrategyAgreesAtImageLevel) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Builtins, StrategiesAgree, ::testing::Values("cornell-sphere", "cornell-near", "occlusion"),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           for (char& c : n) if (c == '-') c = '_';
-                           return n;
-                         });
+                         param_name);
 
 TEST(Render, SameImageForAnyThreadCount) {
   Scene s = small("cornell-near", "solid-angle", 4);
@@ -130,11 +134,7 @@ TEST_P(Enclosure, RadianceMatchesNeumannSeries) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Strategies, Enclosure, ::testing::Values("area", "solid-angle", "bsdf"),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           for (char& c : n) if (c == '-') c = '_';
-                           return n;
-                         });
+                         param_name);
 
 // White furnace: a diffuse sphere of albedo a under a uniform sky of radiance 1
 // reflects exactly a (a convex object never sees itself); the estimator has
