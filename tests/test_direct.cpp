@@ -71,7 +71,14 @@ TEST_P(DirectIrradiance, EachStrategyMatchesTheClosedForm) {
 
 INSTANTIATE_TEST_SUITE_P(Geometry, DirectIrradiance,
                          ::testing::Values(Case{1.2f, 0.f}, Case{2.f, 0.f}, Case{2.f, 25.f}, Case{5.f, 60.f},
-                                           Case{20.f, 45.f}, Case{100.f, 0.f}, Case{100.f, 80.f}));
+                                           Case{20.f, 45.f}, Case{100.f, 0.f}, Case{100.f, 80.f}),
+                         [](const ::testing::TestParamInfo<Case>& info) {  // e.g. "d_over_r_1_2_beta_0"
+                           std::string n = "d_over_r_" + std::to_string(info.param.d_over_r).substr(0, 5) +
+                                           "_beta_" + std::to_string(int(info.param.beta_deg));
+                           for (char& c : n)
+                             if (c == '.') c = '_';
+                           return n;
+                         });
 
 // Without the cosine, L / pdf of cone sampling is the constant L * solid angle:
 // a zero-variance estimator of the light's solid angle (Taylor branch included).
