@@ -45,6 +45,17 @@ double integrate_pdf(const DirectionGrid& grid, const std::function<double(Vec3)
   return s;
 }
 
+// Adapts a light-sampling strategy to expect_matches_pdf: the sampled direction,
+// rejected (outside bin) when the strategy returns pdf 0.
+std::function<bool(Vec2, Vec3*)> direction_sampler(LightSample (*strategy)(const Light&, Vec3, Vec2),
+                                                   const Light& l, Vec3 x) {
+  return [strategy, &l, x](Vec2 u, Vec3* w) {
+    LightSample s = strategy(l, x, u);
+    *w = s.wi;
+    return s.pdf > 0.f;
+  };
+}
+
 // --- Independent pdfs from geometry --------------------------------------------
 
 // Solid-angle pdf of uniform area sampling of a sphere light, by ray casting.
@@ -147,14 +158,7 @@ TEST_P(SphereLightSampling, AreaStrategyMatchesJacobianPdf) {
   }
   // About half the sphere faces away and is rejected: (1 + r/d) / 2 of the samples.
   EXPECT_NEAR(rejected / 4000.0, 0.5 * (1.0 + r / d), 0.03);
-  expect_matches_pdf(
-      grid,
-      [&](Vec2 u, Vec3* w) {
-        LightSample s = sample_light_area(l, x, u);
-        *w = s.wi;
-        return s.pdf > 0.f;
-      },
-      pdf, 5);
+  expect_matches_pdf(grid, direction_sampler(sample_light_area, l, x), pdf, 5);
   // Only the visible cap counts: its share of the area is (1 - r/d) / 2.
   DirectionGrid cone(l.p - x, cos_max, 16, 16);
   EXPECT_NEAR(integrate_pdf(cone, pdf), 0.5 * (1.0 - r / d), 2e-3);
@@ -178,14 +182,7 @@ TEST_P(SphereLightSampling, SolidAngleStrategyIsUniformInCone) {
     EXPECT_GT(dot(s.wi, normalize(l.p - x)), cos_max - 1e-6);
   }
   DirectionGrid grid(l.p - x, cos_max, 12, 16);
-  expect_matches_pdf(
-      grid,
-      [&](Vec2 u, Vec3* w) {
-        LightSample s = sample_light_solid_angle(l, x, u);
-        *w = s.wi;
-        return s.pdf > 0.f;
-      },
-      pdf, 6);
+  expect_matches_pdf(grid, direction_sampler(sample_light_solid_angle, l, x), pdf, 6);
   if (GetParam() < 20.f) {  // the grid resolves the cone's edge
     DirectionGrid cone(l.p - x, cos_max, 16, 16);
     EXPECT_NEAR(integrate_pdf(cone, pdf), 1.0, 1e-3);
