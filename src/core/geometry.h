@@ -63,6 +63,11 @@ PN_FN bool intersect_sphere(const Ray& ray, Vec3 center, float radius, float tmi
   return false;
 }
 
+// Half-extent of a sphere's bounding box for the acceleration structures of
+// both backends: padded by a relative epsilon, because intersect_sphere may
+// report a hit a rounding error outside the exact sphere.
+PN_FN float sphere_bounds_radius(float radius) { return radius * 1.0001f; }
+
 // Moebius-Trumbore ray-triangle intersection; used by tests and by scene code
 // that needs a triangle test outside a backend.
 PN_FN bool intersect_triangle(const Ray& ray, Vec3 p0, Vec3 p1, Vec3 p2, float tmin, float tmax,

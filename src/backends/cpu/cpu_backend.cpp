@@ -31,8 +31,7 @@ struct GeomInfo {
 void sphere_bounds(const RTCBoundsFunctionArguments* args) {
   const auto* spheres = static_cast<const std::vector<Sphere>*>(args->geometryUserPtr);
   const Sphere& s = (*spheres)[args->primID];
-  // Pad by a relative epsilon: the intersection may report t slightly outside.
-  float r = s.radius * 1.0001f;
+  float r = sphere_bounds_radius(s.radius);
   args->bounds_o->lower_x = s.center.x - r;
   args->bounds_o->lower_y = s.center.y - r;
   args->bounds_o->lower_z = s.center.z - r;

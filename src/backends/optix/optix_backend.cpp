@@ -28,6 +28,7 @@
 
 #include "backends/optix/kernels.h"
 #include "backends/optix/launch_params.h"
+#include "core/geometry.h"
 
 // The device programs, OptiX-IR embedded at build time (embed_file.cmake).
 extern const unsigned char penumbra_optix_ir[];
@@ -721,7 +722,7 @@ class OptixBackendImpl final : public OptixBackend {
         std::vector<OptixAabb> boxes(n);
         for (size_t i = 0; i < n; ++i) {
           const Sphere& s = scene_.spheres[i];
-          const float r = s.radius * 1.0001f;  // as the CPU's bounds: t may land a little outside
+          const float r = sphere_bounds_radius(s.radius);  // the CPU's bounds too
           boxes[i] = {s.center.x - r, s.center.y - r, s.center.z - r, s.center.x + r, s.center.y + r, s.center.z + r};
         }
         aabbs.upload(boxes, "sphere bounds", size_);
