@@ -189,7 +189,9 @@ def write_report(args, preset, head, radius_runs, near_runs, slat_runs, radii, n
     os.makedirs(fig_dir, exist_ok=True)
     env = head[0]
     info = env.get("device_info", {})
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    # The commit of the binary that made the runs (older summaries lack it: then the checkout's).
+    commit = env.get("git_commit") or subprocess.run(["git", "rev-parse", "--short", "HEAD"],
+                                                     capture_output=True, text=True).stdout.strip()
     lines = []
     w = lines.append
     w("# Results: area versus solid-angle sampling of sphere lights\n")

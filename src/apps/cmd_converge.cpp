@@ -28,6 +28,10 @@
 #include "render/metrics.h"
 #include "scene/scene.h"
 
+#ifndef PENUMBRA_GIT_COMMIT
+#define PENUMBRA_GIT_COMMIT "unknown"
+#endif
+
 namespace pn {
 namespace {
 namespace fs = std::filesystem;
@@ -222,6 +226,7 @@ int run_converge(const ConvergeArgs& a) {
   summary["reference"] = {{"spp", a.reference_spp}, {"strategy", strategy_name(ref_strategy)}, {"file", ref_path},
                           {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed},
                           {"rmse_floor", floor_all}, {"rmse_floor_nolight", floor_nolight}};
+  summary["git_commit"] = PENUMBRA_GIT_COMMIT;  // of the binary that made the runs
   summary["backend"] = backend->name();
   summary["device"] = backend->device_name();
   json info = json::object();
