@@ -23,13 +23,13 @@ test::MeanEstimator irradiance(Strategy strategy, const Light& light, Vec3 x, Ve
   SceneView scene;
   scene.lights = &light;
   scene.num_lights = 1;
-  Material white{Vec3(1.f)};
+  const Bsdf white = make_lambert(Vec3(1.f), n);
   Rng rng(0, 0, seed);
   test::MeanEstimator est;
   for (int i = 0; i < samples; ++i) {
     float us = rng.uniform();
     Vec2 u = rng.uniform2();
-    est.add(kPi * estimate_direct(NoOccluder{}, scene, strategy, white, x, n, n, us, u).x);
+    est.add(kPi * estimate_direct(NoOccluder{}, scene, strategy, white, x, n, us, u).x);
   }
   return est;
 }

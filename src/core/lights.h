@@ -4,8 +4,13 @@
 // the shading point. Strategies that pick points on a surface convert with the
 // area-to-solid-angle Jacobian in one place, area_to_solid_angle() below.
 //
-// A light emits constant radiance L from its OUTER side only: a sphere outwards,
-// a quad on the side of its normal n = normalize(e1 x e2).
+// A light emits radiance L from its OUTER side only: a sphere outwards, a quad or
+// a triangle on the side of its normal n = normalize(e1 x e2). L is constant,
+// except on a triangle of an emissive mesh with an emission texture, where the
+// texture (looked up by the integrator at the sampled point) multiplies it.
+// The environment is a light too (type Environment), sampled by
+// core/environment.h whatever the strategy: the strategies compare ways of
+// sampling lights with a surface.
 #pragma once
 
 #include "common.h"
@@ -15,16 +20,18 @@
 
 namespace pn {
 
-enum class LightType : uint32_t { Sphere = 0, Quad = 1 };
+enum class LightType : uint32_t { Sphere = 0, Quad = 1, Triangle = 2, Environment = 3 };
 
 struct Light {
   LightType type = LightType::Sphere;
   Vec3 radiance;  // L, constant over the surface
-  Vec3 p;         // sphere: centre; quad: corner
+  Vec3 p;         // sphere: centre; quad: corner; triangle: vertex 0
   float radius = 0.f;  // sphere only
-  Vec3 e1, e2;    // quad only: edges from the corner
-  Vec3 n;         // quad only: unit normal of the emitting side
+  Vec3 e1, e2;    // quad and triangle: edges from p
+  Vec3 n;         // quad and triangle: unit normal of the emitting side
   float area = 0.f;
+  Vec2 uv0, uv1, uv2;         // triangle: texture coordinates of its vertices
+  int32_t emission_tex = -1;  // triangle: texture multiplying `radiance`, or -1
 
   PN_HD static Light sphere(Vec3 center, float radius, Vec3 radiance) {
     Light l;
@@ -47,6 +54,19 @@ struct Light {
     l.radiance = radiance;
     return l;
   }
+  PN_HD static Light triangle(Vec3 p0, Vec3 p1, Vec3 p2, Vec3 radiance) {
+    Light l;
+    l.type = LightType::Triangle;
+    l.p = p0;
+    l.e1 = p1 - p0;
+    l.e2 = p2 - p0;
+    Vec3 c = cross(l.e1, l.e2);
+    float len = length(c);
+    l.area = 0.5f * len;
+    l.n = len > 0.f ? c / len : Vec3(0.f, 0.f, 1.f);
+    l.radiance = radiance;
+    return l;
+  }
 };
 
 // A direction towards a light, with what is needed to evaluate and shadow-test it.
@@ -56,6 +76,8 @@ struct LightSample {
   float dist = 0.f; // distance to y
   Vec3 L;           // radiance arriving along wi (if unoccluded)
   float pdf = 0.f;  // solid-angle density of wi; 0 means "no sample"
+  Vec2 b;           // triangle lights: barycentrics (b1, b2) of y, for textured emission
+  bool infinite = false;  // environment: y is at infinity, the shadow ray is unbounded
 };
 
 // Converts a density over the light's area at point y (normal ny) into a density
@@ -80,12 +102,21 @@ PN_FN LightSample area_to_solid_angle(Vec3 x, Vec3 y, Vec3 ny, float pdf_area, V
 
 // --- Strategy A: uniform area sampling ----------------------------------------
 // Sphere: y uniform over the whole sphere, p_A = 1 / (4 pi r^2); about half of the
-// samples land on the far side and are wasted. Quad: y uniform, p_A = 1 / A.
+// samples land on the far side and are wasted. Quad and triangle: y uniform,
+// p_A = 1 / A. (Emissive meshes are many triangle lights: every strategy samples
+// them this way.)
 PN_FN LightSample sample_light_area(const Light& light, Vec3 x, Vec2 u) {
   if (light.type == LightType::Sphere) {
     Vec3 n = sample_uniform_sphere(u);
     Vec3 y = light.p + n * light.radius;
     return area_to_solid_angle(x, y, n, 1.f / light.area, light.radiance);
+  }
+  if (light.type == LightType::Triangle) {
+    Vec2 b = sample_uniform_triangle(u);
+    Vec3 y = light.p + light.e1 * b.x + light.e2 * b.y;
+    LightSample s = area_to_solid_angle(x, y, light.n, 1.f / light.area, light.radiance);
+    s.b = b;
+    return s;
   }
   Vec3 y = sample_uniform_parallelogram(u, light.p, light.e1, light.e2);
   return area_to_solid_angle(x, y, light.n, 1.f / light.area, light.radiance);

@@ -59,4 +59,19 @@ PN_FN Vec3 sample_uniform_parallelogram(Vec2 u, Vec3 p0, Vec3 e1, Vec3 e2) {
   return p0 + e1 * u.x + e2 * u.y;
 }
 
+// --- Uniform triangle: barycentrics (b1, b2) of a uniform point, pdf = 1 / area.
+// The square-to-triangle map of Heitz 2019 ("A Low-Distortion Map Between
+// Triangle and Square"), which keeps neighbouring u neighbouring.
+PN_FN Vec2 sample_uniform_triangle(Vec2 u) {
+  float b0, b1;
+  if (u.x < u.y) {
+    b0 = u.x / 2.f;
+    b1 = u.y - b0;
+  } else {
+    b1 = u.y / 2.f;
+    b0 = u.x - b1;
+  }
+  return Vec2(b0, b1);
+}
+
 }  // namespace pn

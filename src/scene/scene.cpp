@@ -1,6 +1,7 @@
 // Scene parsing and validation. Every rejection names the file and the field.
 #include "scene/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -331,6 +332,34 @@ void parse_shape(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
   }
 }
 
+// A material: {"albedo": c} is Lambert's (the thesis's scenes); otherwise the
+// metallic-roughness model of core/material.h, with glTF's defaults.
+Material parse_material(const Node& m) {
+  m.expect_object({"albedo", "base_color", "metallic", "roughness", "specular", "emission", "alpha",
+                   "alpha_cutoff"});
+  Material mat;
+  if (m.has("albedo")) {
+    for (auto k : {"base_color", "metallic", "roughness", "specular"})
+      if (m.has(k)) m.at(k).fail("'albedo' (Lambert) and the metallic-roughness keys exclude each other");
+    mat.base_color = m.at("albedo").color(1.f);
+    mat.metallic = 0.f;
+    mat.roughness = 1.f;
+    mat.specular = 0.f;
+  } else {
+    mat.base_color = m.has("base_color") ? m.at("base_color").color(1.f) : Vec3(1.f);
+    mat.metallic = m.has("metallic") ? m.at("metallic").real(0.0, 1.0) : 1.f;
+    mat.roughness = m.has("roughness") ? m.at("roughness").real(0.0, 1.0) : 1.f;
+    mat.specular = m.has("specular") ? m.at("specular").real(0.0, 1.0) : 0.5f;
+  }
+  if (m.has("emission")) mat.emission = m.at("emission").color(1e9f);
+  if (m.has("alpha")) mat.alpha = m.at("alpha").real(0.0, 1.0);
+  if (m.has("alpha_cutoff")) {
+    mat.alpha_cutoff = m.at("alpha_cutoff").real(0.0, 1.0);
+    mat.alpha_mode = AlphaMode::Mask;
+  }
+  return mat;
+}
+
 // Lights are given by `radiance` L or by total emitted `power` Phi (watts per
 // RGB channel). For a surface emitting L on one side into the hemisphere,
 // Phi = pi * A * L, so a sphere of radius r has L = Phi / (4 pi^2 r^2): with power
@@ -396,18 +425,17 @@ Scene parse_scene(const json& doc, const std::string& source, const std::string&
   if (root.has("background")) s.background = root.at("background").color(1e9f);
 
   // Material 0 is black: the default surface of lights.
-  s.materials.push_back(Material{Vec3(0.f)});
+  Material black;
+  black.base_color = Vec3(0.f);
+  s.materials.push_back(black);
   s.material_names.push_back("(light)");
   std::map<std::string, uint32_t> mats;
   if (root.has("materials")) {
     Node ms = root.at("materials");
     if (!ms.j.is_object()) ms.fail("expected an object mapping names to materials");
     for (auto it = ms.j.begin(); it != ms.j.end(); ++it) {
-      Node m = ms.at(it.key());
-      m.expect_object({"albedo"});
-      m.require("albedo");
       mats[it.key()] = uint32_t(s.materials.size());
-      s.materials.push_back(Material{m.at("albedo").color(1.f)});
+      s.materials.push_back(parse_material(ms.at(it.key())));
       s.material_names.push_back(it.key());
     }
   }
@@ -424,6 +452,7 @@ Scene parse_scene(const json& doc, const std::string& source, const std::string&
     for (size_t i = 0; i < lights.j.size(); ++i) parse_light(lights.at(i), s, mats);
   }
   if (s.spheres.empty() && s.instances.empty()) root.fail("the scene has no shapes and no lights");
+  finalize_scene(s);
   return s;
 }
 
@@ -505,14 +534,221 @@ Scene load_scene(const std::string& name_or_path, const std::vector<std::string>
   }
 }
 
-SceneView Scene::view() const {
-  SceneView v;
-  v.lights = lights.data();
-  v.num_lights = uint32_t(lights.size());
-  v.materials = materials.data();
-  v.num_materials = uint32_t(materials.size());
-  v.background = background;
+TextureView TextureImage::view() const {
+  TextureView v;
+  v.texels = texels.data();
+  v.width = width;
+  v.height = height;
+  v.format = format;
+  v.nearest = nearest;
   return v;
+}
+
+std::unique_ptr<HostSceneView> make_host_view(const Scene& scene) {
+  auto h = std::make_unique<HostSceneView>();
+  for (const Instance& inst : scene.instances) {
+    const TriangleMesh& m = scene.meshes[inst.mesh];
+    InstanceView v;
+    v.to_world = inst.to_world;
+    v.to_object = inst.to_object;
+    v.mesh.positions = m.positions.data();
+    v.mesh.indices = m.indices.empty() ? nullptr : m.indices[0].data();
+    v.mesh.normals = m.normals.empty() ? nullptr : m.normals.data();
+    v.mesh.uvs = m.uvs.empty() ? nullptr : m.uvs.data();
+    v.mesh.face_materials = m.face_materials.empty() ? nullptr : m.face_materials.data();
+    v.mesh.face_lights = m.face_lights.empty() ? nullptr : m.face_lights.data();
+    v.mesh.num_triangles = uint32_t(m.indices.size());
+    v.material = inst.material;
+    v.light = inst.light;
+    v.light_base = inst.light_base;
+    h->instances.push_back(v);
+  }
+  for (const Sphere& sp : scene.spheres) h->spheres.push_back(SphereView{sp.center, sp.radius, sp.material, sp.light});
+  for (const TextureImage& t : scene.textures) h->textures.push_back(t.view());
+  SceneView& v = h->view;
+  v.lights = scene.lights.data();
+  v.num_lights = uint32_t(scene.lights.size());
+  v.light_cdf = scene.light_cdf.empty() ? nullptr : scene.light_cdf.data();
+  v.materials = scene.materials.data();
+  v.num_materials = uint32_t(scene.materials.size());
+  v.textures = h->textures.data();
+  v.num_textures = uint32_t(h->textures.size());
+  v.instances = h->instances.data();
+  v.num_instances = uint32_t(h->instances.size());
+  v.spheres = h->spheres.data();
+  v.num_spheres = uint32_t(h->spheres.size());
+  v.background = scene.background;
+  const Environment& env = scene.environment;
+  if (env.texture >= 0) {
+    EnvironmentView& e = v.environment;
+    e.image = h->textures[size_t(env.texture)];
+    e.width = uint32_t(e.image.width);
+    e.height = uint32_t(e.image.height);
+    e.marginal.func = env.marginal_func.data();
+    e.marginal.cdf = env.marginal_cdf.data();
+    e.marginal.n = e.height;
+    e.marginal.integral = env.integral;
+    e.conditional_func = env.conditional_func.data();
+    e.conditional_cdf = env.conditional_cdf.data();
+    float rad = env.rotation * kPi / 180.f;
+    e.cos_rot = std::cos(rad);
+    e.sin_rot = std::sin(rad);
+    e.scale = env.scale;
+    for (size_t i = 0; i < scene.lights.size(); ++i)
+      if (scene.lights[i].type == LightType::Environment) v.environment_light = int32_t(i);
+  }
+  return h;
+}
+
+namespace {
+
+// Normalizes a piecewise-constant function into a CDF; returns its integral
+// (sum / n). An all-zero function gets a uniform CDF and integral 0.
+float build_cdf(const float* func, size_t n, float* cdf) {
+  double sum = 0.0;
+  cdf[0] = 0.f;
+  std::vector<double> acc(n + 1, 0.0);
+  for (size_t i = 0; i < n; ++i) acc[i + 1] = acc[i] + double(func[i]);
+  sum = acc[n];
+  for (size_t i = 1; i <= n; ++i) cdf[i] = sum > 0.0 ? float(acc[i] / sum) : float(double(i) / double(n));
+  cdf[n] = 1.f;
+  return float(sum / double(n));
+}
+
+float average_luminance(const TextureImage& t) {
+  if (t.width <= 0 || t.height <= 0) return 1.f;
+  TextureView v = t.view();
+  double sum = 0.0;
+  for (int y = 0; y < t.height; ++y)
+    for (int x = 0; x < t.width; ++x) sum += luminance(texel_fetch(v, x, y).rgb);
+  return float(sum / (double(t.width) * t.height));
+}
+
+}  // namespace
+
+void finalize_scene(Scene& s) {
+  // Emissive triangles become triangle lights, instance by instance, in world space.
+  s.lights.erase(std::remove_if(s.lights.begin(), s.lights.end(),
+                                [](const Light& l) { return l.type == LightType::Triangle || l.type == LightType::Environment; }),
+                 s.lights.end());
+  for (TriangleMesh& m : s.meshes) m.face_lights.clear();
+  std::vector<float> tex_avg(s.textures.size(), -1.f);
+  auto emits = [&](uint32_t mat) { return !is_black(s.materials[mat].emission); };
+  for (size_t mi = 0; mi < s.meshes.size(); ++mi) {
+    TriangleMesh& m = s.meshes[mi];
+    bool any = false;
+    for (const Instance& inst : s.instances) {
+      if (inst.mesh != mi || inst.light >= 0) continue;
+      if (m.face_materials.empty() ? emits(inst.material) : false) any = true;
+    }
+    for (uint32_t fm : m.face_materials) any = any || emits(fm);
+    if (!any) continue;
+    m.face_lights.assign(m.indices.size(), -1);
+  }
+  std::vector<int32_t> ranks;
+  for (Instance& inst : s.instances) {
+    inst.light_base = -1;
+    const TriangleMesh& m = s.meshes[inst.mesh];
+    if (inst.light >= 0 || m.face_lights.empty()) continue;
+    // Ranks are per mesh, so every instance of it numbers its triangles alike;
+    // an instance whose material does not emit (no face materials) has none.
+    if (m.face_materials.empty() && !emits(inst.material)) continue;
+    inst.light_base = int32_t(s.lights.size());
+    int32_t rank = 0;
+    auto& fl = s.meshes[inst.mesh].face_lights;
+    for (size_t t = 0; t < m.indices.size(); ++t) {
+      uint32_t mat = m.face_materials.empty() ? inst.material : m.face_materials[t];
+      const auto& tri = m.indices[t];
+      Vec3 p0 = inst.to_world.point(m.positions[tri[0]]), p1 = inst.to_world.point(m.positions[tri[1]]),
+           p2 = inst.to_world.point(m.positions[tri[2]]);
+      if (!emits(mat) || !(length(cross(p1 - p0, p2 - p0)) > 0.f)) {
+        fl[t] = -1;
+        continue;
+      }
+      fl[t] = rank++;
+      const Material& mm = s.materials[mat];
+      Light l = Light::triangle(p0, p1, p2, mm.emission);
+      if (!m.uvs.empty()) {
+        l.uv0 = m.uvs[tri[0]];
+        l.uv1 = m.uvs[tri[1]];
+        l.uv2 = m.uvs[tri[2]];
+      }
+      l.emission_tex = mm.emission_tex;
+      s.lights.push_back(l);
+    }
+  }
+
+  // The environment: its light and the distribution that samples it.
+  Environment& env = s.environment;
+  if (env.texture >= 0) {
+    const TextureImage& img = s.textures[size_t(env.texture)];
+    const int W = img.width, H = img.height;
+    TextureView v = img.view();
+    env.conditional_func.assign(size_t(W) * H, 0.f);
+    env.conditional_cdf.assign(size_t(W + 1) * H, 0.f);
+    env.marginal_func.assign(size_t(H), 0.f);
+    env.marginal_cdf.assign(size_t(H) + 1, 0.f);
+    for (int y = 0; y < H; ++y) {
+      float st = std::sin(kPi * (float(y) + 0.5f) / float(H));
+      float* f = &env.conditional_func[size_t(y) * W];
+      for (int x = 0; x < W; ++x) f[x] = pn_max(0.f, luminance(texel_fetch(v, x, y).rgb)) * st;
+      env.marginal_func[size_t(y)] = build_cdf(f, size_t(W), &env.conditional_cdf[size_t(y) * (W + 1)]);
+    }
+    env.integral = build_cdf(env.marginal_func.data(), size_t(H), env.marginal_cdf.data());
+    Light l;
+    l.type = LightType::Environment;
+    l.radiance = env.scale;
+    s.lights.push_back(l);
+  }
+
+  // Selection in proportion to power (the luminance of Phi).
+  const float R = s.bounding_radius();
+  s.light_cdf.assign(s.lights.size() + 1, 0.f);
+  std::vector<float> power(s.lights.size(), 0.f);
+  for (size_t i = 0; i < s.lights.size(); ++i) {
+    const Light& l = s.lights[i];
+    float p = 0.f;
+    if (l.type == LightType::Environment) {
+      // Phi = pi R^2 * integral of L over the sphere of directions.
+      p = kPi * R * R * 2.f * kPi * kPi * env.integral * luminance(env.scale);
+    } else {
+      float tex = 1.f;
+      if (l.type == LightType::Triangle && l.emission_tex >= 0) {
+        float& a = tex_avg[size_t(l.emission_tex)];
+        if (a < 0.f) a = average_luminance(s.textures[size_t(l.emission_tex)]);
+        tex = a;
+      }
+      p = kPi * l.area * luminance(l.radiance) * tex;
+    }
+    power[i] = std::isfinite(p) ? pn_max(0.f, p) : 0.f;
+  }
+  if (!s.lights.empty()) build_cdf(power.data(), power.size(), s.light_cdf.data());
+  else s.light_cdf.clear();
+}
+
+float Scene::bounding_radius() const {
+  Vec3 lo(kInf), hi(-kInf);
+  std::vector<std::pair<Vec3, Vec3>> boxes(meshes.size(), {Vec3(kInf), Vec3(-kInf)});
+  for (size_t i = 0; i < meshes.size(); ++i)
+    for (const Vec3& p : meshes[i].positions) {
+      boxes[i].first = vmin(boxes[i].first, p);
+      boxes[i].second = vmax(boxes[i].second, p);
+    }
+  for (const Instance& inst : instances) {  // the world box of each instance's object box
+    const auto& [blo, bhi] = boxes[inst.mesh];
+    if (!(blo.x <= bhi.x)) continue;
+    for (int c = 0; c < 8; ++c) {
+      Vec3 w = inst.to_world.point(Vec3(c & 1 ? bhi.x : blo.x, c & 2 ? bhi.y : blo.y, c & 4 ? bhi.z : blo.z));
+      lo = vmin(lo, w);
+      hi = vmax(hi, w);
+    }
+  }
+  for (const Sphere& sp : spheres) {
+    lo = vmin(lo, sp.center - Vec3(sp.radius));
+    hi = vmax(hi, sp.center + Vec3(sp.radius));
+  }
+  if (!(lo.x <= hi.x)) return 1.f;
+  return 0.5f * length(hi - lo);
 }
 
 Camera Scene::make_camera() const {

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -17,7 +18,9 @@
 #include "core/integrator.h"
 #include "core/lights.h"
 #include "core/material.h"
+#include "core/scene_view.h"
 #include "core/strategy.h"
+#include "core/texture.h"
 #include "core/transform.h"
 
 namespace pn {
@@ -36,14 +39,43 @@ struct TriangleMesh {
   std::string name;
   std::vector<Vec3> positions;
   std::vector<std::array<uint32_t, 3>> indices;
+  std::vector<Vec3> normals;             // per vertex, or empty (flat shading)
+  std::vector<Vec2> uvs;                 // per vertex (image convention: v down), or empty
+  std::vector<uint32_t> face_materials;  // per triangle (scene material indices), or empty
+  // Filled by finalize_scene(): per triangle, its rank among the mesh's emissive
+  // triangles (-1: not emissive); empty when no triangle emits.
+  std::vector<int32_t> face_lights;
 };
 
 struct Instance {
   uint32_t mesh = 0;
   Affine to_world;    // object -> world
   Affine to_object;   // its inverse (normals use its transpose)
-  uint32_t material = 0;
+  uint32_t material = 0;  // when the mesh has no face_materials
   int32_t light = -1;  // >= 0 for the triangles of a quad light
+  int32_t light_base = -1;  // finalize_scene(): first light of this instance's emissive triangles
+};
+
+// An image a material or the environment refers to, decoded: width*height RGBA
+// texels, row 0 at the top; 4 bytes per texel for the 8-bit formats, 16 (float)
+// for Rgba32f.
+struct TextureImage {
+  std::string path;  // where it came from (messages)
+  int width = 0, height = 0;
+  TexelFormat format = TexelFormat::Rgba8Srgb;
+  bool nearest = false;
+  std::vector<uint8_t> texels;
+  TextureView view() const;  // host view (CPU backend)
+};
+
+// The environment map and its sampling distribution (finalize_scene()).
+struct Environment {
+  int32_t texture = -1;  // index into Scene::textures (Rgba32f, nearest); -1: none
+  float rotation = 0.f;  // degrees about +y
+  Vec3 scale{1.f};       // intensity
+  std::vector<float> marginal_func, marginal_cdf;        // height, height + 1
+  std::vector<float> conditional_func, conditional_cdf;  // height x width, height x (width + 1)
+  float integral = 0.f;
 };
 
 struct Sphere {
@@ -80,13 +112,33 @@ struct Scene {
   std::vector<Sphere> spheres;       // includes the surfaces of sphere lights
   std::vector<TriangleMesh> meshes;   // quads, boxes, quad lights, meshes, named meshes
   std::vector<Instance> instances;    // every placement of a mesh in the world
-  std::vector<Light> lights;
+  std::vector<Light> lights;          // spheres, quads, emissive triangles (world space), environment
+  std::vector<float> light_cdf;       // power-proportional selection, lights.size() + 1 entries
+  std::vector<TextureImage> textures;
+  Environment environment;
+  std::vector<std::string> warnings;  // non-fatal problems found while loading (missing textures, ...)
 
-  SceneView view() const;
   Camera make_camera() const;
+  float bounding_radius() const;  // of everything that is not a light at infinity
   IntegratorSettings integrator() const;
   size_t triangle_count() const;
 };
+
+// The arrays a SceneView points at, in host memory, for a backend that traces
+// on the CPU. Lives as long as the scene it was made from, which must not move.
+struct HostSceneView {
+  std::vector<InstanceView> instances;
+  std::vector<SphereView> spheres;
+  std::vector<TextureView> textures;
+  SceneView view;
+};
+std::unique_ptr<HostSceneView> make_host_view(const Scene& scene);
+
+// Completes a parsed scene: a triangle light for every emissive triangle of
+// every instance, the environment's light and distribution, and the lights'
+// power-proportional selection CDF. parse_scene() calls it; code that builds a
+// Scene by hand calls it once when done.
+void finalize_scene(Scene& scene);
 
 // Loads a built-in scene by name or a scene file by path, applies "key=value"
 // overrides (see apply_override) and validates everything. Throws SceneError.

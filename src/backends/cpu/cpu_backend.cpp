@@ -1,6 +1,8 @@
 // CPU backend. Embree answers the integrator's two questions (closest hit, any
 // hit); spheres are Embree user geometry intersected by core/geometry.h so that
-// CPU and GPU compute the same hits. Work is split into 16x16 tiles taken by a
+// CPU and GPU compute the same hits, and alpha-masked triangles are skipped by
+// Embree filter functions that ask core/scene_view.h's alpha_discards(), as the
+// GPU's any-hit program does. Work is split into 16x16 tiles taken by a
 // pool of threads; every pixel sample has its own RNG stream, so the image does
 // not depend on the number of threads or on the order tiles are taken.
 #include "backends/cpu/cpu_backend.h"
@@ -19,12 +21,6 @@
 
 namespace pn {
 namespace {
-
-// What a top-level Embree geometry ID stands for.
-struct GeomInfo {
-  bool is_sphere_set = false;
-  const Instance* instance = nullptr;  // an instance of one of the scene's meshes
-};
 
 // --- Sphere user geometry ------------------------------------------------------
 
@@ -66,15 +62,49 @@ void sphere_occluded(const RTCOccludedFunctionNArguments* args) {
   if (intersect_sphere(ray, s.center, s.radius, r->tnear, r->tfar, &t)) r->tfar = -kInf;  // Embree: occluded
 }
 
+// --- Alpha masks ------------------------------------------------------------------
+
+// What a mesh's filter function needs: the scene view and, by instance ID, the instance.
+struct FilterData {
+  const SceneView* view = nullptr;
+  const std::vector<int>* instance_of_geom = nullptr;  // top-level geometry ID -> instance index
+};
+
+void alpha_filter(const RTCFilterFunctionNArguments* args) {
+  const auto* fd = static_cast<const FilterData*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] == 0) continue;
+    const unsigned inst_id = RTCHitN_instID(args->hit, args->N, i, 0);
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    const float b1 = RTCHitN_u(args->hit, args->N, i), b2 = RTCHitN_v(args->hit, args->N, i);
+    if (inst_id >= fd->instance_of_geom->size()) continue;
+    const int idx = (*fd->instance_of_geom)[inst_id];
+    if (idx < 0) continue;
+    if (alpha_discards(*fd->view, fd->view->instances[idx], prim, b1, b2)) args->valid[i] = 0;
+  }
+}
+
 class CpuBackend final : public Backend {
  public:
-  CpuBackend(const Scene& scene, int threads) : scene_(scene), view_(scene.view()) {
+  CpuBackend(const Scene& scene, int threads) : scene_(scene), host_(make_host_view(scene)), view_(host_->view) {
+    filter_.view = &view_;
+    filter_.instance_of_geom = &instance_of_geom_;
     threads_ = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
     device_ = rtcNewDevice("threads=1");  // Embree's own threads only build; we trace
     if (!device_) throw std::runtime_error("cannot create Embree device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
     // One Embree scene per mesh (its BVH built once) and one instance per
     // placement: the same structure as the GPU's GAS-per-mesh plus IAS.
-    for (const TriangleMesh& m : scene.meshes) {
+    // Meshes with any alpha-masked material get the filter (it is per geometry).
+    std::vector<bool> masked(scene.meshes.size(), false);
+    for (const Instance& inst : scene.instances) {
+      const TriangleMesh& m = scene.meshes[inst.mesh];
+      auto is_mask = [&](uint32_t mat) { return scene.materials[mat].alpha_mode == AlphaMode::Mask; };
+      bool any = m.face_materials.empty() && is_mask(inst.material);
+      for (uint32_t fm : m.face_materials) any = any || is_mask(fm);
+      if (any) masked[inst.mesh] = true;
+    }
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+      const TriangleMesh& m = scene.meshes[mi];
       RTCScene ms = rtcNewScene(device_);
       rtcSetSceneBuildQuality(ms, RTC_BUILD_QUALITY_HIGH);
       RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -89,6 +119,11 @@ class CpuBackend final : public Backend {
                                                                  3 * sizeof(uint32_t), m.indices.size()));
       for (size_t i = 0; i < m.indices.size(); ++i)
         for (int k = 0; k < 3; ++k) idx[3 * i + k] = m.indices[i][k];
+      if (masked[mi]) {
+        rtcSetGeometryUserData(g, &filter_);
+        rtcSetGeometryIntersectFilterFunction(g, alpha_filter);
+        rtcSetGeometryOccludedFilterFunction(g, alpha_filter);
+      }
       rtcCommitGeometry(g);
       rtcAttachGeometry(ms, g);
       rtcReleaseGeometry(g);
@@ -97,15 +132,16 @@ class CpuBackend final : public Backend {
     }
     rtc_ = rtcNewScene(device_);
     rtcSetSceneBuildQuality(rtc_, RTC_BUILD_QUALITY_HIGH);
-    for (const Instance& inst : scene.instances) {
+    for (size_t ii = 0; ii < scene.instances.size(); ++ii) {
+      const Instance& inst = scene.instances[ii];
       RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
       rtcSetGeometryInstancedScene(g, mesh_scenes_[inst.mesh]);
       rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, inst.to_world.m);
       rtcCommitGeometry(g);
       unsigned id = rtcAttachGeometry(rtc_, g);
       rtcReleaseGeometry(g);
-      geoms_.resize(id + 1);
-      geoms_[id].instance = &inst;
+      instance_of_geom_.resize(id + 1, -1);
+      instance_of_geom_[id] = int(ii);
     }
     if (!scene.spheres.empty()) {
       RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
@@ -117,8 +153,7 @@ class CpuBackend final : public Backend {
       rtcCommitGeometry(g);
       sphere_geom_ = rtcAttachGeometry(rtc_, g);
       rtcReleaseGeometry(g);
-      geoms_.resize(sphere_geom_ + 1);
-      geoms_[sphere_geom_].is_sphere_set = true;
+      instance_of_geom_.resize(sphere_geom_ + 1, -1);
     }
     rtcCommitScene(rtc_);
     if (rtcGetDeviceError(device_) != RTC_ERROR_NONE)
@@ -141,7 +176,7 @@ class CpuBackend final : public Backend {
   // The integrator's view of Embree.
   struct Tracer {
     const CpuBackend* self;
-    bool intersect(const Ray& ray, float tmax, SurfaceHit* hit) const {
+    bool intersect(const Ray& ray, float tmax, HitRecord* hit) const {
       RTCIntersectContext ctx;
       rtcInitIntersectContext(&ctx);
       RTCRayHit rh;
@@ -157,20 +192,13 @@ class CpuBackend final : public Backend {
       rtcIntersect1(self->rtc_, &ctx, &rh);
       if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
       hit->t = rh.ray.tfar;
+      hit->prim = rh.hit.primID;
       if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
-        const Instance& inst = *self->geoms_[rh.hit.instID[0]].instance;
-        const TriangleMesh& mesh = self->scene_.meshes[inst.mesh];
-        const auto& tri = mesh.indices[rh.hit.primID];
-        const auto& P = mesh.positions;
-        triangle_hit(P[tri[0]], P[tri[1]], P[tri[2]], rh.hit.u, rh.hit.v, &hit->p, &hit->n);
-        instance_to_world(inst.to_world, inst.to_object, &hit->p, &hit->n);
-        hit->material = inst.material;
-        hit->light = inst.light;
+        hit->instance = uint32_t(self->instance_of_geom_[rh.hit.instID[0]]);
+        hit->b1 = rh.hit.u;
+        hit->b2 = rh.hit.v;
       } else {
-        const Sphere& s = self->scene_.spheres[rh.hit.primID];
-        sphere_hit(s.center, s.radius, ray, hit->t, &hit->p, &hit->n);
-        hit->material = s.material;
-        hit->light = s.light;
+        hit->instance = kSphereInstance;
       }
       return true;
     }
@@ -251,12 +279,14 @@ class CpuBackend final : public Backend {
 
  private:
   const Scene& scene_;
+  std::unique_ptr<HostSceneView> host_;
   SceneView view_;
+  FilterData filter_;
+  std::vector<int> instance_of_geom_;  // top-level geometry ID -> instance index (-1: spheres)
   int threads_ = 1;
   RTCDevice device_ = nullptr;
   RTCScene rtc_ = nullptr;              // top level: instances and the sphere set
   std::vector<RTCScene> mesh_scenes_;  // one per TriangleMesh
-  std::vector<GeomInfo> geoms_;        // by top-level geometry ID
   unsigned sphere_geom_ = RTC_INVALID_GEOMETRY_ID;
 };
 

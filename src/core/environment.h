@@ -1,0 +1,131 @@
+// An HDR environment at infinity: an equirectangular (latitude-longitude) image,
+// rotated about +y and scaled, importance-sampled for next-event estimation.
+//
+// Mapping (y up): a direction d = (sin t sin p, cos t, -sin t cos p) has image
+// coordinates u = p / (2 pi) + 1/2, v = t / pi, so the top row is straight up
+// and the image's centre column looks down -z. The importance distribution is
+// piecewise constant over the image's pixels with density proportional to
+// luminance x sin t (pbrt-v4's ImageInfiniteLight, without its compensation),
+// sampled by inverting the marginal CDF over rows and the conditional CDF over
+// the chosen row. Densities convert from (u, v) to solid angle by
+// p(w) = p(u, v) / (2 pi^2 sin t). The image is looked up without filtering
+// (nearest texel) so that radiance and density are constant over the same
+// cells: the density is then never zero where radiance is not.
+#pragma once
+
+#include "common.h"
+#include "texture.h"
+#include "vec.h"
+
+namespace pn {
+
+// A piecewise-constant density over [0, 1) of n pieces: func (n values >= 0),
+// cdf (n + 1 values, cdf[0] = 0, cdf[n] = 1), integral = sum(func) / n.
+struct Distribution1DView {
+  const float* func = nullptr;
+  const float* cdf = nullptr;
+  uint32_t n = 0;
+  float integral = 0.f;
+};
+
+// Continuous sample x in [0, 1) with density func[i] / integral; *piece gets i.
+PN_FN float sample_distribution(const Distribution1DView& d, float u, float* pdf, uint32_t* piece) {
+  // Largest i with cdf[i] <= u (binary search over [0, n)).
+  uint32_t lo = 0, hi = d.n;
+  while (hi - lo > 1) {
+    uint32_t mid = (lo + hi) / 2;
+    if (d.cdf[mid] <= u) lo = mid;
+    else hi = mid;
+  }
+  // Skip pieces of zero probability that u may land on through rounding.
+  while (lo + 1 < d.n && d.cdf[lo + 1] <= d.cdf[lo]) ++lo;
+  *piece = lo;
+  float width = d.cdf[lo + 1] - d.cdf[lo];
+  float du = width > 0.f ? (u - d.cdf[lo]) / width : 0.5f;
+  du = clamp(du, 0.f, kOneMinusEpsilon);
+  *pdf = d.integral > 0.f ? d.func[lo] / d.integral : 0.f;
+  return pn_min((float(lo) + du) / float(d.n), kOneMinusEpsilon);
+}
+
+struct EnvironmentView {
+  TextureView image;                  // Rgba32f, linear radiance, nearest-texel lookup
+  Distribution1DView marginal;        // over rows (height pieces)
+  const float* conditional_func = nullptr;  // height x width
+  const float* conditional_cdf = nullptr;   // height x (width + 1)
+  uint32_t width = 0, height = 0;     // of the distribution (the image's size)
+  float cos_rot = 1.f, sin_rot = 0.f; // rotation about +y, world = R * env
+  Vec3 scale{1.f};                    // intensity (and tint)
+  PN_HD bool present() const { return width > 0; }
+};
+
+// Direction in the environment's frame <-> world.
+PN_FN Vec3 env_to_world(const EnvironmentView& e, Vec3 d) {
+  return Vec3(e.cos_rot * d.x + e.sin_rot * d.z, d.y, -e.sin_rot * d.x + e.cos_rot * d.z);
+}
+PN_FN Vec3 env_from_world(const EnvironmentView& e, Vec3 d) {
+  return Vec3(e.cos_rot * d.x - e.sin_rot * d.z, d.y, e.sin_rot * d.x + e.cos_rot * d.z);
+}
+
+// Image coordinates of an environment-frame direction, and back.
+PN_FN Vec2 equirect_uv(Vec3 d) {
+  float t = std::acos(clamp(d.y, -1.f, 1.f));
+  float p = std::atan2(d.x, -d.z);  // in (-pi, pi]
+  return Vec2(p * kInvTwoPi + 0.5f, t * kInvPi);
+}
+PN_FN Vec3 equirect_direction(Vec2 uv) {
+  float t = uv.y * kPi, p = (uv.x - 0.5f) * kTwoPi;
+  float st = std::sin(t);
+  return Vec3(st * std::sin(p), std::cos(t), -st * std::cos(p));
+}
+
+// Radiance arriving from world direction w.
+PN_FN Vec3 environment_radiance(const EnvironmentView& e, Vec3 w) {
+  return texture_lookup(e.image, equirect_uv(env_from_world(e, w))).rgb * e.scale;
+}
+
+// The row-th conditional distribution.
+PN_FN Distribution1DView environment_row(const EnvironmentView& e, uint32_t row) {
+  Distribution1DView d;
+  d.func = e.conditional_func + size_t(row) * e.width;
+  d.cdf = e.conditional_cdf + size_t(row) * (e.width + 1);
+  d.n = e.width;
+  d.integral = e.marginal.func[row];  // the row's integral is the marginal's value
+  return d;
+}
+
+// Solid-angle density of environment_sample() returning world direction w.
+PN_FN float environment_pdf(const EnvironmentView& e, Vec3 w) {
+  if (!(e.marginal.integral > 0.f)) return 0.f;
+  Vec2 uv = equirect_uv(env_from_world(e, w));
+  float st = std::sin(uv.y * kPi);
+  if (!(st > 0.f)) return 0.f;
+  uint32_t col = pn_min(uint32_t(pn_max(0.f, uv.x) * float(e.width)), e.width - 1);
+  uint32_t row = pn_min(uint32_t(pn_max(0.f, uv.y) * float(e.height)), e.height - 1);
+  float pdf_uv = e.conditional_func[size_t(row) * e.width + col] / e.marginal.integral;
+  return pdf_uv / (2.f * kPi * kPi * st);
+}
+
+// A direction towards the environment, with density proportional to the
+// distribution; the sample's radiance is looked up in the (filtered) image.
+struct EnvironmentSample {
+  Vec3 wi;
+  Vec3 L;
+  float pdf = 0.f;
+};
+
+PN_FN EnvironmentSample environment_sample(const EnvironmentView& e, Vec2 u) {
+  EnvironmentSample s;
+  if (!(e.marginal.integral > 0.f)) return s;
+  float pdf_v, pdf_u;
+  uint32_t row, col;
+  float v = sample_distribution(e.marginal, u.y, &pdf_v, &row);
+  float uu = sample_distribution(environment_row(e, row), u.x, &pdf_u, &col);
+  float st = std::sin(v * kPi);
+  if (!(st > 0.f) || !(pdf_u * pdf_v > 0.f)) return s;
+  s.wi = env_to_world(e, equirect_direction(Vec2(uu, v)));
+  s.pdf = pdf_u * pdf_v / (2.f * kPi * kPi * st);
+  s.L = environment_radiance(e, s.wi);
+  return s;
+}
+
+}  // namespace pn
