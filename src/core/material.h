@@ -2,9 +2,11 @@
 //
 //   f(wo, wi) = (1 - m) c / pi * (1 - F_d(cos_o)) (1 - F_d(cos_i))      diffuse
 //             + D(h) G2(wo, wi) F(wo . h) / (4 cos_o cos_i)            GGX specular
+//   F = (1 - m) F_d + m F_c
 //
-// c is the base colour, m the metallic factor, F Schlick's Fresnel with
-// F0 = lerp(0.08 * specular, c, m), F_d the same for the dielectric F0 alone.
+// c is the base colour, m the metallic factor, F_c Schlick's Fresnel with
+// F0 = c (the metal), F_d Schlick's with F0 = 0.08 * specular (the dielectric's
+// coat; F_d = 0 when specular = 0: no coat at all).
 // D is the isotropic GGX (Trowbridge-Reitz) distribution with alpha =
 // roughness^2, G2 Smith's height-correlated masking-shadowing (Heitz 2014).
 // The diffuse term loses what the dielectric's Fresnel reflects, on the way in
@@ -55,8 +57,10 @@ struct Bsdf {
   Frame frame;          // shading frame; frame.n faces the side wo is on
   Vec3 ng;              // geometric normal, on the side of wo
   Vec3 diffuse;         // (1 - m) c
-  Vec3 f0;              // lerp(0.08 specular, c, m)
-  float f0_dielectric = 0.f;  // 0.08 specular (1 - m): what the diffuse term loses
+  Vec3 metal;           // c: F0 of the metallic part
+  float metal_weight = 0.f;   // m
+  float coat_weight = 0.f;    // 1 - m with a coat (specular > 0), else 0
+  float f0_dielectric = 0.f;  // 0.08 specular: F0 of the coat
   float alpha = 1.f;    // GGX alpha
   bool has_specular = false;
 };
@@ -139,12 +143,26 @@ PN_FN Bsdf make_bsdf(Vec3 base_color, float metallic, float roughness, float spe
   metallic = clamp(metallic, 0.f, 1.f);
   float f0d = 0.08f * clamp(specular, 0.f, 1.f);
   b.diffuse = base_color * (1.f - metallic);
-  b.f0 = Vec3(f0d) * (1.f - metallic) + base_color * metallic;
-  b.f0_dielectric = f0d * (1.f - metallic);
+  b.metal = base_color;
+  b.metal_weight = is_black(base_color) ? 0.f : metallic;
+  b.f0_dielectric = f0d;
+  b.coat_weight = f0d > 0.f ? 1.f - metallic : 0.f;
   float r = clamp(roughness, 0.f, 1.f);
   b.alpha = pn_max(kMinGgxAlpha, r * r);
-  b.has_specular = !is_black(b.f0);
+  b.has_specular = b.metal_weight > 0.f || b.coat_weight > 0.f;
   return b;
+}
+
+// F = (1 - m) F_d + m F_c, at the cosine between wo and the microfacet normal.
+PN_FN Vec3 bsdf_fresnel(const Bsdf& b, float cos_theta) {
+  Vec3 f = schlick_fresnel(b.metal, cos_theta) * b.metal_weight;
+  if (b.coat_weight > 0.f) f += Vec3(schlick_fresnel(b.f0_dielectric, cos_theta) * b.coat_weight);
+  return f;
+}
+
+// The diffuse term's loss to the coat, (1 - F_d(cos)); 1 without a coat.
+PN_FN float bsdf_coat_transmission(const Bsdf& b, float cos_theta) {
+  return b.coat_weight > 0.f ? 1.f - schlick_fresnel(b.f0_dielectric, cos_theta) : 1.f;
 }
 
 // The Lambertian BSDF of albedo a around normal n (tests, simple scenes).
@@ -153,8 +171,8 @@ PN_FN Bsdf make_lambert(Vec3 albedo, Vec3 n) { return make_bsdf(albedo, 0.f, 1.f
 // Probability of sampling the specular lobe for view direction wo_local.
 PN_FN float bsdf_specular_probability(const Bsdf& b, float cos_o) {
   if (!b.has_specular) return 0.f;
-  float ws = luminance(schlick_fresnel(b.f0, cos_o));
-  float wd = luminance(b.diffuse) * (1.f - schlick_fresnel(b.f0_dielectric, cos_o));
+  float ws = luminance(bsdf_fresnel(b, cos_o));
+  float wd = luminance(b.diffuse) * bsdf_coat_transmission(b, cos_o);
   if (!(wd > 0.f)) return 1.f;
   return clamp(ws / (ws + wd), 0.1f, 0.9f);
 }
@@ -164,13 +182,11 @@ PN_FN Vec3 bsdf_eval(const Bsdf& b, Vec3 wo, Vec3 wi) {
   if (dot(wi, b.ng) <= 0.f || dot(wo, b.ng) <= 0.f) return Vec3(0.f);
   Vec3 o = b.frame.to_local(wo), i = b.frame.to_local(wi);
   if (o.z <= 0.f || i.z <= 0.f) return Vec3(0.f);
-  Vec3 f = b.diffuse * kInvPi;
-  if (b.f0_dielectric > 0.f)
-    f *= (1.f - schlick_fresnel(b.f0_dielectric, o.z)) * (1.f - schlick_fresnel(b.f0_dielectric, i.z));
+  Vec3 f = b.diffuse * (kInvPi * bsdf_coat_transmission(b, o.z) * bsdf_coat_transmission(b, i.z));
   if (b.has_specular) {
     Vec3 h = normalize(o + i);
     float g = ggx_g2(o, i, b.alpha);
-    f += schlick_fresnel(b.f0, dot(o, h)) * (ggx_d(h, b.alpha) * g / (4.f * o.z * i.z));
+    f += bsdf_fresnel(b, dot(o, h)) * (ggx_d(h, b.alpha) * g / (4.f * o.z * i.z));
   }
   return f;
 }
@@ -208,10 +224,7 @@ PN_FN BsdfSample bsdf_sample(const Bsdf& b, Vec3 wo, float u_lobe, Vec2 u) {
     // Pure diffuse: f cos / pdf reduces to the weighted albedo exactly.
     if (dot(s.wi, b.ng) <= 0.f) return BsdfSample();
     s.pdf = cosine_hemisphere_pdf(i.z);
-    Vec3 w = b.diffuse;
-    if (b.f0_dielectric > 0.f)
-      w *= (1.f - schlick_fresnel(b.f0_dielectric, o.z)) * (1.f - schlick_fresnel(b.f0_dielectric, i.z));
-    s.weight = w;
+    s.weight = b.diffuse * (bsdf_coat_transmission(b, o.z) * bsdf_coat_transmission(b, i.z));
     return s;
   }
   s.pdf = bsdf_pdf(b, wo, s.wi);
