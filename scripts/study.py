@@ -12,6 +12,7 @@ cached by `penumbra converge` (see --cache), so a rerun only renders what change
 import argparse
 import csv
 import datetime
+import glob
 import json
 import math
 import os
@@ -286,8 +287,9 @@ def write_report(args, preset, head, radius_runs, near_runs, slat_runs, radii, n
         plot_crops(near[0], os.path.join(fig_dir, "figure_4_1_cornell_near.png"))
         w("## Figure 4.1, measured: the near light at 32 spp\n")
         w("![crops](figures/figure_4_1_cornell_near.png)\n")
-        w("Crops around the light of cornell-near, one seed, with per-pixel error maps on a shared scale. Full images: "
-          f"`runs/{near[0]['name']}/image_*_32spp.png`.\n")
+        full = glob.glob(os.path.join(near[0]["run_dir"], "image_*_32spp.png"))
+        w("Crops around the light of cornell-near, one seed, with per-pixel error maps on a shared scale."
+          + (f" Full images: `runs/{near[0]['name']}/image_*_32spp.png`." if full else "") + "\n")
 
     if os.path.exists(os.path.join(args.out, "DISCUSSION.md")):
         w("## Discussion\n")
