@@ -68,7 +68,8 @@ PN_FN Vec3 env_from_world(const EnvironmentView& e, Vec3 d) {
 
 // Image coordinates of an environment-frame direction, and back.
 PN_FN Vec2 equirect_uv(Vec3 d) {
-  float t = std::acos(clamp(d.y, -1.f, 1.f));
+  // atan2 rather than acos(d.y): well conditioned near the poles too.
+  float t = std::atan2(std::sqrt(d.x * d.x + d.z * d.z), d.y);
   float p = std::atan2(d.x, -d.z);  // in (-pi, pi]
   return Vec2(p * kInvTwoPi + 0.5f, t * kInvPi);
 }
@@ -96,8 +97,9 @@ PN_FN Distribution1DView environment_row(const EnvironmentView& e, uint32_t row)
 // Solid-angle density of environment_sample() returning world direction w.
 PN_FN float environment_pdf(const EnvironmentView& e, Vec3 w) {
   if (!(e.marginal.integral > 0.f)) return 0.f;
-  Vec2 uv = equirect_uv(env_from_world(e, w));
-  float st = std::sin(uv.y * kPi);
+  Vec3 d = env_from_world(e, w);
+  Vec2 uv = equirect_uv(d);
+  float st = std::sqrt(d.x * d.x + d.z * d.z);  // sin t, without a round trip through t
   if (!(st > 0.f)) return 0.f;
   uint32_t col = pn_min(uint32_t(pn_max(0.f, uv.x) * float(e.width)), e.width - 1);
   uint32_t row = pn_min(uint32_t(pn_max(0.f, uv.y) * float(e.height)), e.height - 1);

@@ -92,8 +92,9 @@ PN_FN float schlick_fresnel(float f0, float cos_theta) {
 PN_FN float ggx_d(Vec3 h, float alpha) {
   if (h.z <= 0.f) return 0.f;
   float a2 = alpha * alpha;
-  float c2 = h.z * h.z;
-  float d = c2 * (a2 - 1.f) + 1.f;
+  // a2 cos^2 + sin^2, written without the cancellation of cos^2 (a2 - 1) + 1,
+  // which loses the peak of narrow lobes in float.
+  float d = a2 * (h.z * h.z) + (h.x * h.x + h.y * h.y);
   return a2 / (kPi * d * d);
 }
 
