@@ -10,6 +10,8 @@ packages=(
   libstb-dev             # PNG output
   libtinyexr-dev         # EXR output
   libtinyobjloader-dev   # OBJ meshes
+  libtinygltf-dev        # glTF 2.0 models (header; compiled in src/scene/tinygltf_impl.cpp)
+  assimp-testmodels      # tests: real OBJ and glTF files made by others (tests/test_models.cpp)
   libgtest-dev           # tests
   libglfw3-dev           # viewer: window and OpenGL context (penumbra view)
   libgl-dev              # viewer: OpenGL headers (GL/glcorearb.h)

@@ -76,6 +76,7 @@ int run_render(const RenderArgs& a) {
   set_int("render.rr_depth", a.rr_depth);
   set_int("render.seed", a.seed);
   Scene scene = load_scene(a.scene, overrides);
+  for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
 
   std::string out = a.output.empty() ? default_output(a.scene) : a.output;
   check_image_path(out);  // fail before a long render, not after

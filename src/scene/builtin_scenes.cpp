@@ -1,10 +1,15 @@
 // Built-in scenes, written as scene documents so that they go through the same
 // parser as files: `penumbra scenes --dump NAME` prints one to start editing.
 //
-// All three share the Cornell box (Goral et al. 1984, dimensions of the Cornell
-// "box data" in metres/100): floor y=0, ceiling y=5.488, back wall z=5.592, red
-// wall at x=5.56 (left in the image), green wall at x=0; the front is open.
+// The thesis's three share the Cornell box (Goral et al. 1984, dimensions of the
+// Cornell "box data" in metres/100): floor y=0, ceiling y=5.488, back wall
+// z=5.592, red wall at x=5.56 (left in the image), green wall at x=0; the front
+// is open. `sponza`, `bunnies` and `glossy` use model files and an HDR sky found
+// through scene_data_roots() and the source tree's data/ folder.
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 
 #include "scene/scene.h"
 
@@ -77,7 +82,146 @@ json make_occlusion() {
   return doc;
 }
 
+// --- Scenes with model files ------------------------------------------------------
+
+#ifndef PENUMBRA_SOURCE_DIR
+#define PENUMBRA_SOURCE_DIR "."
+#endif
+
+// A file of the scene data (relative to a root of scene_data_roots()): the first
+// root holding it, else its path under the first root (load_scene then names
+// every root in its error).
+std::string scene_data_file(const std::string& rel) {
+  std::vector<std::string> roots = scene_data_roots();
+  for (const auto& r : roots) {
+    std::error_code ec;
+    std::filesystem::path p = std::filesystem::path(r) / rel;
+    if (std::filesystem::is_regular_file(p, ec)) return p.lexically_normal().string();
+  }
+  return (std::filesystem::path(roots.front()) / rel).lexically_normal().string();
+}
+
+// A file of this source tree's data/ folder (the glossy scene's sky).
+std::string source_data_file(const std::string& rel) {
+  std::filesystem::path p = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data" / rel;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(p, ec)) {
+    std::filesystem::path local = std::filesystem::path("data") / rel;
+    if (std::filesystem::is_regular_file(local, ec)) return std::filesystem::absolute(local).lexically_normal().string();
+  }
+  return p.lexically_normal().string();
+}
+
+json render_block() {
+  return {{"width", 1920}, {"height", 1080}, {"spp", 64}, {"max_depth", 8}, {"rr_depth", 5},
+          {"strategy", "solid-angle"}, {"seed", 0}};
+}
+
+// The Sponza atrium (Dabrovic), with the camera and light of its source scene
+// (lajolla_public's sponza.xml): the light, a sphere of radius 0.1 and radiance
+// 5000, hangs at (0, 17, 0), above the open roof (the model ends at y = 15.65).
+// The source's horizontal field of view of 90.47 degrees is kept at 16:9:
+// vertical fov = 2 atan(tan(90.47/2) * 9/16) = 59.12 degrees.
+json make_sponza() {
+  const double hfov = 90.47 * kPi / 180.0;
+  const double vfov = 2.0 * std::atan(std::tan(hfov / 2.0) * 9.0 / 16.0) * 180.0 / kPi;
+  return {
+      {"camera", {{"eye", {14.4499, 6.89415, -1.18547}}, {"target", {13.4563, 6.78438, -1.15861}},
+                  {"up", {-0.109708, 0.993957, 0.00374357}}, {"fov", std::round(vfov * 100.0) / 100.0}}},
+      {"render", render_block()},
+      {"background", {0, 0, 0}},
+      {"models", json::array({{{"file", scene_data_file("sponza/sponza.obj")}}})},
+      {"lights", json::array({{{"type", "sphere"}, {"center", {0, 17, 0}}, {"radius", 0.1}, {"radiance", 5000}}})},
+  };
+}
+
+// Stanford bunnies on a ground plane, 24 x 24 instances of one mesh (40 million
+// triangles placed, 69,451 stored): the IAS keeps memory flat. The bunny is
+// 0.154 units tall in its file, scaled by 10 and stood on y = 0.
+json make_bunnies() {
+  const int n = 24;
+  const double pitch = 2.0, scale = 10.0, lift = -0.032987 * scale;
+  const char* names[4] = {"clay", "jade", "gold", "plastic"};
+  json models = json::array();
+  std::vector<json> transforms(4, json::array());
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < n; ++k) {
+      double x = (i - (n - 1) / 2.0) * pitch, z = (k - (n - 1) / 2.0) * pitch;
+      double angle = double((i * 37 + k * 91) % 360);
+      transforms[size_t((i + 2 * k) % 4)].push_back(
+          {{"scale", scale}, {"rotate", {0, 1, 0, angle}}, {"translate", {x + 0.2, lift, z}}});
+    }
+  const std::string bunny = scene_data_file("models/stanford-bunny.obj");
+  for (int m = 0; m < 4; ++m) models.push_back({{"file", bunny}, {"material", names[m]}, {"transforms", transforms[m]}});
+  return {
+      {"camera", {{"eye", {-20, 14, -30}}, {"target", {2, 0, 2}}, {"up", {0, 1, 0}}, {"fov", 35}}},
+      {"render", render_block()},
+      {"background", {0.06, 0.07, 0.09}},
+      {"materials", {{"ground", {{"albedo", {0.5, 0.5, 0.5}}}},
+                     {"clay", {{"albedo", {0.75, 0.45, 0.3}}}},
+                     {"jade", {{"base_color", {0.25, 0.6, 0.4}}, {"metallic", 0}, {"roughness", 0.3}, {"specular", 0.5}}},
+                     {"gold", {{"base_color", {1.0, 0.766, 0.336}}, {"metallic", 1}, {"roughness", 0.35}}},
+                     {"plastic", {{"base_color", {0.1, 0.2, 0.7}}, {"metallic", 0}, {"roughness", 0.15}, {"specular", 0.5}}}}},
+      {"shapes", json::array({{{"type", "quad"}, {"corner", {-40, 0, -40}}, {"edge1", {0, 0, 80}}, {"edge2", {80, 0, 0}},
+                               {"material", "ground"}}})},
+      {"models", models},
+      {"lights", json::array({{{"type", "sphere"}, {"center", {-8, 24, -12}}, {"radius", 2.5}, {"power", 60000}}})},
+  };
+}
+
+// Rough metals and plastics under a sphere light and an HDR sky with a sun
+// (data/sky.hdr, made by scripts/make_sky.py): glossy reflections of small, bright
+// sources, where sampling the light alone is not enough.
+json make_glossy() {
+  struct Ball { const char* mat; double x, z; };
+  const Ball balls[] = {{"gold-05", -3.3, -0.8}, {"gold-20", -2.2, -0.8}, {"copper-20", -1.1, -0.8},
+                        {"copper-40", 0, -0.8}, {"alu-05", 1.1, -0.8}, {"alu-40", 2.2, -0.8}, {"alu-60", 3.3, -0.8},
+                        {"plastic-red-05", -3.0, 1.2}, {"plastic-blue-20", -1.6, 1.2}, {"plastic-white-40", 1.6, 1.2},
+                        {"plastic-green-60", 3.0, 1.2}};
+  json shapes = json::array();
+  shapes.push_back({{"type", "quad"}, {"corner", {-20, 0, -20}}, {"edge1", {0, 0, 40}}, {"edge2", {40, 0, 0}},
+                    {"material", "floor"}});
+  for (const Ball& b : balls)
+    shapes.push_back({{"type", "sphere"}, {"center", {b.x, 0.5, b.z}}, {"radius", 0.5}, {"material", b.mat}});
+  shapes.push_back({{"type", "box"}, {"center", {-2.3, 0.45, 2.9}}, {"size", {0.9, 0.9, 0.9}}, {"rotate_y", 30},
+                    {"material", "plastic-white-05"}});
+  shapes.push_back({{"type", "box"}, {"center", {2.3, 0.45, 2.9}}, {"size", {0.9, 0.9, 0.9}}, {"rotate_y", -20},
+                    {"material", "copper-05"}});
+  auto metal = [](json c, double r) { return json{{"base_color", c}, {"metallic", 1}, {"roughness", r}}; };
+  auto plastic = [](json c, double r) {
+    return json{{"base_color", c}, {"metallic", 0}, {"roughness", r}, {"specular", 0.5}};
+  };
+  const json gold = {1.0, 0.766, 0.336}, copper = {0.955, 0.638, 0.538}, alu = {0.913, 0.922, 0.924};
+  return {
+      {"camera", {{"eye", {0, 3.0, -7.8}}, {"target", {0, 0.6, 0.8}}, {"up", {0, 1, 0}}, {"fov", 38}}},
+      {"render", render_block()},
+      {"materials", {{"floor", plastic({0.35, 0.35, 0.38}, 0.5)},
+                     {"gold-05", metal(gold, 0.05)}, {"gold-20", metal(gold, 0.2)},
+                     {"copper-05", metal(copper, 0.05)}, {"copper-20", metal(copper, 0.2)},
+                     {"copper-40", metal(copper, 0.4)},
+                     {"alu-05", metal(alu, 0.05)}, {"alu-40", metal(alu, 0.4)}, {"alu-60", metal(alu, 0.6)},
+                     {"plastic-red-05", plastic({0.7, 0.05, 0.05}, 0.05)},
+                     {"plastic-blue-20", plastic({0.05, 0.15, 0.7}, 0.2)},
+                     {"plastic-white-05", plastic({0.8, 0.8, 0.8}, 0.05)},
+                     {"plastic-white-40", plastic({0.8, 0.8, 0.8}, 0.4)},
+                     {"plastic-green-60", plastic({0.1, 0.5, 0.15}, 0.6)}}},
+      {"shapes", shapes},
+      {"models", json::array({{{"file", scene_data_file("models/stanford-bunny.obj")}, {"material", "gold-20"},
+                               {"transform", {{"scale", 12}, {"rotate", {0, 1, 0, 200}}, {"translate", {0, -0.396, 1.4}}}}}})},
+      {"lights", json::array({{{"type", "sphere"}, {"center", {2.5, 4.0, -1.5}}, {"radius", 0.3}, {"power", 300}}})},
+      {"environment", {{"file", source_data_file("sky.hdr")}, {"rotation", 0}, {"intensity", 1}}},
+  };
+}
+
 }  // namespace
+
+std::vector<std::string> scene_data_roots() {
+  std::vector<std::string> roots;
+  if (const char* env = std::getenv("PENUMBRA_SCENES"); env && *env) roots.push_back(env);
+  roots.push_back((std::filesystem::path(PENUMBRA_SOURCE_DIR) / ".." / "shared" / "scenes").lexically_normal().string());
+  roots.push_back((std::filesystem::path("..") / "shared" / "scenes").string());
+  return roots;
+}
 
 const std::vector<BuiltinScene>& builtin_scenes() {
   static const std::vector<BuiltinScene> scenes = {
@@ -85,6 +229,12 @@ const std::vector<BuiltinScene>& builtin_scenes() {
        make_cornell_sphere},
       {"cornell-near", "Cornell box with a small sphere light two radii from the back wall", make_cornell_near},
       {"occlusion", "sphere light behind two crossed layers of slats: most shadow rays are blocked", make_occlusion},
+      {"sponza", "Dabrovic's Sponza atrium (OBJ + MTL + textures) lit by a small sphere light above its open roof",
+       make_sponza},
+      {"bunnies", "24 x 24 instanced Stanford bunnies (40M triangles placed, one mesh stored) under a sphere light",
+       make_bunnies},
+      {"glossy", "rough metal and plastic spheres, boxes and a bunny under a sphere light and an HDR sky with a sun",
+       make_glossy},
   };
   return scenes;
 }

@@ -10,7 +10,9 @@
 #include <set>
 #include <sstream>
 
+#include "scene/json_node.h"
 #include "scene/mesh_io.h"
+#include "scene/model_io.h"
 
 namespace pn {
 namespace fs = std::filesystem;
@@ -22,93 +24,9 @@ namespace {
 constexpr int kMaxResolution = 16384;
 constexpr int kMaxSpp = 1 << 24;
 constexpr int kMaxDepth = 1024;
-constexpr float kMaxCoordinate = 1e7f;
+using scene_detail::kMaxCoordinate;
 
-// A JSON value together with where it lives, for error messages.
-struct Node {
-  const json& j;
-  std::string path;  // e.g. "lights[0].radius"
-  const std::string& source;
-
-  [[noreturn]] void fail(const std::string& msg) const {
-    throw SceneError(source + ": " + (path.empty() ? std::string("(top level)") : path) + ": " + msg);
-  }
-  Node at(const std::string& key) const {
-    return Node{j.at(key), path.empty() ? key : path + "." + key, source};
-  }
-  Node at(size_t i) const { return Node{j.at(i), path + "[" + std::to_string(i) + "]", source}; }
-  bool has(const std::string& key) const { return j.contains(key); }
-
-  void expect_object(const std::set<std::string>& allowed) const {
-    if (!j.is_object()) fail("expected an object, got " + std::string(j.type_name()));
-    for (auto it = j.begin(); it != j.end(); ++it) {
-      if (!allowed.count(it.key())) {
-        std::string list;
-        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        at(it.key()).fail("unknown key (expected one of: " + list + ")");
-      }
-    }
-  }
-  void require(const std::string& key) const {
-    if (!has(key)) fail("missing required key '" + key + "'");
-  }
-
-  double number() const {
-    if (!j.is_number()) fail("expected a number, got " + std::string(j.type_name()));
-    double v = j.get<double>();
-    if (!std::isfinite(v)) fail("must be a finite number");
-    return v;
-  }
-  float real(double lo, double hi) const {
-    double v = number();
-    if (v < lo || v > hi) {
-      std::ostringstream os;
-      os << "must be in [" << lo << ", " << hi << "] (got " << v << ")";
-      fail(os.str());
-    }
-    return float(v);
-  }
-  float positive(double hi) const {
-    double v = number();
-    if (!(v > 0.0) || v > hi) {
-      std::ostringstream os;
-      os << "must be > 0 and <= " << hi << " (got " << v << ")";
-      fail(os.str());
-    }
-    return float(v);
-  }
-  int integer(long lo, long hi) const {
-    if (!j.is_number_integer() && !j.is_number_unsigned()) {
-      if (j.is_number_float()) fail("expected an integer, got " + j.dump());
-      fail("expected an integer, got " + std::string(j.type_name()));
-    }
-    long long v = j.is_number_unsigned() ? (long long)std::min<uint64_t>(j.get<uint64_t>(), uint64_t(1) << 62)
-                                         : j.get<long long>();
-    if (v < lo || v > hi) fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "] (got " + std::to_string(v) + ")");
-    return int(v);
-  }
-  std::string string() const {
-    if (!j.is_string()) fail("expected a string, got " + std::string(j.type_name()));
-    return j.get<std::string>();
-  }
-  Vec3 vec3(float limit = kMaxCoordinate) const {
-    if (!j.is_array() || j.size() != 3) fail("expected an array of 3 numbers");
-    Vec3 v;
-    for (int i = 0; i < 3; ++i) v[i] = at(size_t(i)).real(-limit, limit);
-    return v;
-  }
-  // A colour: one number (grey) or [r, g, b], each in [0, hi].
-  Vec3 color(float hi) const {
-    if (j.is_number()) {
-      float g = real(0.0, hi);
-      return Vec3(g);
-    }
-    if (!j.is_array() || j.size() != 3) fail("expected a number or an array of 3 numbers");
-    Vec3 v;
-    for (int i = 0; i < 3; ++i) v[i] = at(size_t(i)).real(0.0, hi);
-    return v;
-  }
-};
+using scene_detail::Node;
 
 std::string parent_dir(const std::string& path) {
   fs::path p(path);
@@ -332,14 +250,27 @@ void parse_shape(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
   }
 }
 
+// A texture a scene file names (relative to the scene file). A missing or bad
+// file is a warning: the material keeps its factor alone.
+int32_t material_texture(const Node& n, Scene& s, const std::string& base_dir, TexelFormat format) {
+  fs::path p(n.string());
+  if (p.is_relative()) p = fs::path(base_dir) / p;
+  std::string err;
+  int32_t t = scene_texture_file(s, p.lexically_normal().string(), format, false, &err);
+  if (t < 0) s.warnings.push_back(s.source + ": " + n.path + ": " + err + "; using the factor alone");
+  return t;
+}
+
 // A material: {"albedo": c} is Lambert's (the thesis's scenes); otherwise the
-// metallic-roughness model of core/material.h, with glTF's defaults.
-Material parse_material(const Node& m) {
+// metallic-roughness model of core/material.h, with glTF's defaults. Textures
+// multiply their factors.
+Material parse_material(const Node& m, Scene& s, const std::string& base_dir) {
   m.expect_object({"albedo", "base_color", "metallic", "roughness", "specular", "emission", "alpha",
-                   "alpha_cutoff"});
+                   "alpha_cutoff", "base_color_texture", "metallic_roughness_texture", "normal_texture",
+                   "normal_scale", "emission_texture"});
   Material mat;
   if (m.has("albedo")) {
-    for (auto k : {"base_color", "metallic", "roughness", "specular"})
+    for (auto k : {"base_color", "metallic", "roughness", "specular", "metallic_roughness_texture"})
       if (m.has(k)) m.at(k).fail("'albedo' (Lambert) and the metallic-roughness keys exclude each other");
     mat.base_color = m.at("albedo").color(1.f);
     mat.metallic = 0.f;
@@ -357,7 +288,109 @@ Material parse_material(const Node& m) {
     mat.alpha_cutoff = m.at("alpha_cutoff").real(0.0, 1.0);
     mat.alpha_mode = AlphaMode::Mask;
   }
+  if (m.has("normal_scale")) mat.normal_scale = m.at("normal_scale").real(-10.0, 10.0);
+  if (m.has("base_color_texture"))
+    mat.base_color_tex = material_texture(m.at("base_color_texture"), s, base_dir, TexelFormat::Rgba8Srgb);
+  if (m.has("metallic_roughness_texture"))
+    mat.metallic_roughness_tex = material_texture(m.at("metallic_roughness_texture"), s, base_dir, TexelFormat::Rgba8Linear);
+  if (m.has("normal_texture"))
+    mat.normal_tex = material_texture(m.at("normal_texture"), s, base_dir, TexelFormat::Rgba8Linear);
+  if (m.has("emission_texture")) {
+    mat.emission_tex = material_texture(m.at("emission_texture"), s, base_dir, TexelFormat::Rgba8Srgb);
+    if (mat.emission_tex >= 0 && !m.has("emission")) mat.emission = Vec3(1.f);
+  }
   return mat;
+}
+
+// "models": [{"file": F, "transform": T | "transforms": [T...], "material": name}].
+// Each file is loaded once per scene; every placement of every mesh node is an
+// instance (the model's meshes are shared, never flattened). With "material",
+// that material replaces the model's own (on copies of its meshes without
+// per-face materials). The first model camera found is returned in *camera.
+void parse_models(const Node& n, Scene& s, const std::map<std::string, uint32_t>& mats, const std::string& base_dir,
+                  bool* has_camera, CameraDesc* camera) {
+  if (!n.j.is_array()) n.fail("expected an array of models");
+  std::map<std::string, LoadedModel> loaded;
+  std::map<uint32_t, uint32_t> plain_copy;  // mesh -> its copy without face materials
+  auto file_key = [&](const Node& fn) {
+    fs::path p(fn.string());
+    if (p.is_relative()) p = fs::path(base_dir) / p;
+    std::error_code ec;
+    fs::path canon = fs::weakly_canonical(p, ec);
+    return std::make_pair(ec ? p.lexically_normal().string() : canon.string(), p.lexically_normal().string());
+  };
+  // Files placed only with a "material" override need no per-face materials at all.
+  std::map<std::string, bool> own_materials_used;
+  for (size_t i = 0; i < n.j.size(); ++i) {
+    Node m = n.at(i);
+    if (!m.j.is_object() || !m.has("file") || !m.j["file"].is_string()) continue;
+    bool& used = own_materials_used[file_key(m.at("file")).first];
+    used = used || !m.has("material");
+  }
+  for (size_t i = 0; i < n.j.size(); ++i) {
+    Node m = n.at(i);
+    m.expect_object({"file", "transform", "transforms", "material"});
+    m.require("file");
+    if (m.has("transform") && m.has("transforms")) m.fail("give either 'transform' or 'transforms', not both");
+    std::vector<Affine> placements;
+    if (m.has("transforms")) {
+      Node ts = m.at("transforms");
+      if (!ts.j.is_array() || ts.j.empty()) ts.fail("expected a non-empty array of transforms");
+      if (ts.j.size() > (size_t(1) << 24)) ts.fail("too many transforms");
+      for (size_t k = 0; k < ts.j.size(); ++k) placements.push_back(parse_transform(ts.at(k)));
+    } else {
+      placements.push_back(m.has("transform") ? parse_transform(m.at("transform")) : Affine());
+    }
+    int64_t override_mat = m.has("material") ? int64_t(material_ref(m.at("material"), mats)) : -1;
+    Node fn = m.at("file");
+    const auto [key, path] = file_key(fn);
+    auto it = loaded.find(key);
+    if (it == loaded.end()) {
+      it = loaded.emplace(key, load_model(s, path, s.source + ": " + fn.path)).first;
+      if (!own_materials_used[key])
+        for (uint32_t mesh : it->second.meshes) s.meshes[mesh].face_materials.clear();
+    }
+    const LoadedModel& model = it->second;
+    for (const Affine& t : placements) {
+      for (const ModelPlacement& pl : model.placements) {
+        uint32_t mesh = pl.mesh;
+        if (override_mat >= 0 && !s.meshes[mesh].face_materials.empty()) {
+          auto c = plain_copy.find(mesh);
+          if (c == plain_copy.end()) {
+            TriangleMesh copy = s.meshes[mesh];
+            copy.face_materials.clear();
+            c = plain_copy.emplace(mesh, add_mesh(s, std::move(copy))).first;
+          }
+          mesh = c->second;
+        }
+        add_instance(s, mesh, compose(t, pl.to_model), override_mat >= 0 ? uint32_t(override_mat) : 0u, -1);
+      }
+    }
+    if (model.has_camera && !*has_camera) {
+      *has_camera = true;
+      const Affine& t = placements[0];
+      camera->eye = t.point(model.camera.eye);
+      camera->target = t.point(model.camera.target);
+      camera->up = t.vector(model.camera.up);
+      camera->fov = model.camera.fov;
+    }
+  }
+}
+
+// "environment": {"file": an equirectangular .hdr or .exr, "rotation": degrees
+// about +y, "intensity": number or [r, g, b]}.
+void parse_environment(const Node& n, Scene& s, const std::string& base_dir) {
+  n.expect_object({"file", "rotation", "intensity"});
+  n.require("file");
+  Node fn = n.at("file");
+  fs::path p(fn.string());
+  if (p.is_relative()) p = fs::path(base_dir) / p;
+  std::string err;
+  int32_t t = scene_texture_file(s, p.lexically_normal().string(), TexelFormat::Rgba32f, true, &err);
+  if (t < 0) fn.fail(err);
+  s.environment.texture = t;
+  s.environment.rotation = n.has("rotation") ? n.at("rotation").real(-3600.0, 3600.0) : 0.f;
+  s.environment.scale = n.has("intensity") ? n.at("intensity").color(1e6f) : Vec3(1.f);
 }
 
 // Lights are given by `radiance` L or by total emitted `power` Phi (watts per
@@ -418,9 +451,8 @@ Scene parse_scene(const json& doc, const std::string& source, const std::string&
   Scene s;
   s.source = source;
   Node root{doc, "", s.source};
-  root.expect_object({"camera", "render", "background", "materials", "meshes", "shapes", "lights"});
-  root.require("camera");
-  parse_camera(root.at("camera"), s);
+  root.expect_object({"camera", "render", "background", "materials", "meshes", "shapes", "lights", "models",
+                      "environment"});
   if (root.has("render")) parse_render(root.at("render"), s);
   if (root.has("background")) s.background = root.at("background").color(1e9f);
 
@@ -435,7 +467,7 @@ Scene parse_scene(const json& doc, const std::string& source, const std::string&
     if (!ms.j.is_object()) ms.fail("expected an object mapping names to materials");
     for (auto it = ms.j.begin(); it != ms.j.end(); ++it) {
       mats[it.key()] = uint32_t(s.materials.size());
-      s.materials.push_back(parse_material(ms.at(it.key())));
+      s.materials.push_back(parse_material(ms.at(it.key()), s, base_dir));
       s.material_names.push_back(it.key());
     }
   }
@@ -446,11 +478,19 @@ Scene parse_scene(const json& doc, const std::string& source, const std::string&
     if (!shapes.j.is_array()) shapes.fail("expected an array");
     for (size_t i = 0; i < shapes.j.size(); ++i) parse_shape(shapes.at(i), s, mats, named, base_dir);
   }
+  bool model_camera = false;
+  CameraDesc camera;
+  if (root.has("models")) parse_models(root.at("models"), s, mats, base_dir, &model_camera, &camera);
   if (root.has("lights")) {
     Node lights = root.at("lights");
     if (!lights.j.is_array()) lights.fail("expected an array");
     for (size_t i = 0; i < lights.j.size(); ++i) parse_light(lights.at(i), s, mats);
   }
+  if (root.has("environment")) parse_environment(root.at("environment"), s, base_dir);
+  // The scene's camera, else the first camera of its models.
+  if (root.has("camera")) parse_camera(root.at("camera"), s);
+  else if (model_camera) s.camera = camera;
+  else root.fail("missing required key 'camera' (and no model file has a perspective camera)");
   if (s.spheres.empty() && s.instances.empty()) root.fail("the scene has no shapes and no lights");
   finalize_scene(s);
   return s;
@@ -527,6 +567,21 @@ Scene load_scene(const std::string& name_or_path, const std::vector<std::string>
   std::string source;
   json doc = load_scene_json(name_or_path, overrides, &source);
   std::string base = find_builtin(name_or_path) ? std::string(".") : parent_dir(name_or_path);
+  // A built-in scene whose model data is absent: say where it was looked for.
+  if (find_builtin(name_or_path) && doc.is_object() && doc.contains("models") && doc["models"].is_array()) {
+    for (size_t i = 0; i < doc["models"].size(); ++i) {
+      const json& m = doc["models"][i];
+      if (!m.is_object() || !m.contains("file") || !m["file"].is_string()) continue;
+      std::error_code ec;
+      const std::string f = m["file"].get<std::string>();
+      if (fs::is_regular_file(f, ec)) continue;
+      std::string roots;
+      for (const auto& r : scene_data_roots()) roots += (roots.empty() ? "" : ", ") + r;
+      throw SceneError(source + ": models[" + std::to_string(i) + "].file: '" + f + "' not found (looked in " + roots +
+                       "); set PENUMBRA_SCENES to a folder holding sponza/ and models/, or pass --set models." +
+                       std::to_string(i) + ".file=PATH");
+    }
+  }
   try {
     return parse_scene(doc, source, base);
   } catch (const json::exception& e) {  // should not happen: Node checks types first
@@ -668,6 +723,11 @@ void finalize_scene(Scene& s) {
       fl[t] = rank++;
       const Material& mm = s.materials[mat];
       Light l = Light::triangle(p0, p1, p2, mm.emission);
+      // A mirroring transform reverses the world-space winding; the side that
+      // emits is the one hits call front (the object normal's inverse transpose).
+      if (dot(l.n, inst.to_object.transpose_vector(cross(m.positions[tri[1]] - m.positions[tri[0]],
+                                                         m.positions[tri[2]] - m.positions[tri[0]]))) < 0.f)
+        l.n = -l.n;
       if (!m.uvs.empty()) {
         l.uv0 = m.uvs[tri[0]];
         l.uv1 = m.uvs[tri[1]];

@@ -165,6 +165,11 @@ struct BuiltinScene {
 const std::vector<BuiltinScene>& builtin_scenes();
 const BuiltinScene* find_builtin(const std::string& name);
 
+// Folders searched, in order, for the model data of the built-in scenes that use
+// it (sponza/, models/): $PENUMBRA_SCENES, <source dir>/../shared/scenes,
+// ../shared/scenes (relative to the current directory).
+std::vector<std::string> scene_data_roots();
+
 // Parses a strategy name; throws SceneError listing the valid names.
 Strategy parse_strategy(const std::string& name, const std::string& where);
 std::string strategy_names();  // "area, solid-angle, bsdf"

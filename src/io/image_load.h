@@ -1,0 +1,33 @@
+// Image files read as textures: PNG, JPEG, TGA, BMP (stb_image, 8-bit), Radiance
+// .hdr (stb_image, float) and OpenEXR (tinyexr, float). Always RGBA, row 0 at
+// the top of the image (no flipping).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pn {
+
+struct DecodedImage {
+  int width = 0, height = 0;
+  bool is_float = false;         // texels: RGBA float32 (16 bytes each) or RGBA8 (4 bytes each)
+  std::vector<uint8_t> texels;
+};
+
+// Largest image accepted (texels): larger headers are rejected before allocating.
+constexpr size_t kMaxImageTexels = size_t(1) << 28;
+
+// Decodes a file. want_float: the result is RGBA float (8-bit images are
+// converted from sRGB to linear); otherwise 8-bit images stay 8-bit and HDR
+// images are rejected. Returns false with a one-line reason (no path) in *error.
+bool decode_image_file(const std::string& path, bool want_float, DecodedImage* out, std::string* error);
+
+// The same for an encoded image in memory (glTF's embedded images).
+bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, DecodedImage* out, std::string* error);
+
+// Whether the extension names a float (HDR) format: .hdr or .exr.
+bool is_hdr_path(const std::string& path);
+
+}  // namespace pn
