@@ -13,12 +13,18 @@
 #      solid-angle, rendered by both backends with independent seeds (CPU seed
 #      0, GPU seed 1), each pair compared by `penumbra compare` (per-pixel
 #      differences within the combined standard errors; mean relative
-#      difference under 1%); plus one GPU render with the CPU's own seed;
-#   3. compute-sanitizer --tool memcheck on a short OptiX render: 0 errors.
+#      difference under 1%); plus GPU renders with the CPU's own seed of the
+#      first scene and of the real-scene checks (GPU_CHECK_REAL_SCENES, default
+#      "glossy sponza": textures, environment, GGX, alpha masks). A scene of that
+#      list that `penumbra scenes` does not list is skipped with a note;
+#   3. compute-sanitizer --tool memcheck on short OptiX renders (cornell-sphere
+#      and the real-scene checks that exist): 0 errors.
 # Prints PASS/FAIL per step and a summary; exits 0 only if everything passed.
 #
 # Environment: GPU_CHECK_OUT (output folder, default BUILD_DIR/gpu_check),
-# GPU_CHECK_WIDTH/HEIGHT/SPP (default 128x72, 256 spp), OptiX_ROOT.
+# GPU_CHECK_WIDTH/HEIGHT/SPP (default 128x72, 256 spp), GPU_CHECK_REAL_SCENES,
+# GPU_CHECK_MEMCHECK_SCENES (default cornell-sphere and the real scenes),
+# OptiX_ROOT, PENUMBRA_SCENES (where sponza/ and models/ are: scene/scene.h).
 set -uo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -26,6 +32,7 @@ build=${1:-}
 width=${GPU_CHECK_WIDTH:-128}
 height=${GPU_CHECK_HEIGHT:-72}
 spp=${GPU_CHECK_SPP:-256}
+real_scenes=${GPU_CHECK_REAL_SCENES:-glossy sponza}
 
 declare -a names=() verdicts=()
 failed=0
@@ -72,6 +79,12 @@ render() {  # render SCENE STRATEGY BACKEND SEED NAME
     --spp "$spp" -o "$out/$5.exr" --variance "$out/$5_var.exr" >"$out/$5.log" 2>&1
 }
 scenes=$("$penumbra" scenes | awk '{print $1}')
+listed() { grep -qx -- "$1" <<<"$scenes"; }
+present_real=()
+for scene in $real_scenes; do
+  if listed "$scene"; then present_real+=("$scene")
+  else echo "skip: $scene is not a built-in scene of this build (penumbra scenes does not list it)"; fi
+done
 for scene in $scenes; do
   for strategy in area solid-angle; do
     cpu=${scene}_${strategy}_cpu
@@ -89,25 +102,33 @@ for scene in $scenes; do
 done
 # Same seed: the GPU traces the very paths the CPU traced (same RNG streams).
 first=$(echo "$scenes" | head -n 1)
-if render "$first" solid-angle optix 0 "${first}_solid-angle_optix_seed0"; then
-  "$penumbra" compare "$out/${first}_solid-angle_cpu.exr" "$out/${first}_solid-angle_cpu_var.exr" \
-    "$out/${first}_solid-angle_optix_seed0.exr" "$out/${first}_solid-angle_optix_seed0_var.exr" \
-    | tee "$out/${first}_same_seed_compare.txt"
-  record "$first solid-angle, same seed: cpu == optix" "${PIPESTATUS[0]}"
-else
-  record "$first solid-angle, same seed: optix render" 1
-fi
+for scene in "$first" "${present_real[@]}"; do
+  [[ -f $out/${scene}_solid-angle_cpu.exr ]] || continue  # its CPU render failed above
+  if render "$scene" solid-angle optix 0 "${scene}_solid-angle_optix_seed0"; then
+    "$penumbra" compare "$out/${scene}_solid-angle_cpu.exr" "$out/${scene}_solid-angle_cpu_var.exr" \
+      "$out/${scene}_solid-angle_optix_seed0.exr" "$out/${scene}_solid-angle_optix_seed0_var.exr" \
+      | tee "$out/${scene}_same_seed_compare.txt"
+    record "$scene solid-angle, same seed: cpu == optix" "${PIPESTATUS[0]}"
+  else
+    cat "$out/${scene}_solid-angle_optix_seed0.log"
+    record "$scene solid-angle, same seed: optix render" 1
+  fi
+done
 
 # 3. Memory checker on a short render.
 echo "== compute-sanitizer --tool memcheck"
 if command -v compute-sanitizer >/dev/null 2>&1; then
-  compute-sanitizer --tool memcheck --leak-check full --error-exitcode 9 \
-    "$penumbra" render cornell-sphere --backend optix --width 64 --height 36 --spp 4 -o "$out/memcheck.exr" \
-    >"$out/memcheck.log" 2>&1
-  st=$?
-  grep -E "ERROR SUMMARY|LEAK SUMMARY" "$out/memcheck.log" || tail -n 5 "$out/memcheck.log"
-  grep -q "ERROR SUMMARY: 0 errors" "$out/memcheck.log" || st=1
-  record "compute-sanitizer memcheck: 0 errors" $st
+  for scene in ${GPU_CHECK_MEMCHECK_SCENES:-cornell-sphere ${present_real[*]}}; do
+    log=$out/memcheck_$scene.log
+    [[ $scene == cornell-sphere ]] && log=$out/memcheck.log
+    compute-sanitizer --tool memcheck --leak-check full --error-exitcode 9 \
+      "$penumbra" render "$scene" --backend optix --width 64 --height 36 --spp 4 -o "$out/memcheck_$scene.exr" \
+      >"$log" 2>&1
+    st=$?
+    grep -E "ERROR SUMMARY|LEAK SUMMARY" "$log" || tail -n 5 "$log"
+    grep -q "ERROR SUMMARY: 0 errors" "$log" || st=1
+    record "compute-sanitizer memcheck $scene: 0 errors" $st
+  done
 else
   record "compute-sanitizer memcheck: compute-sanitizer not found" 1
 fi

@@ -5,7 +5,8 @@
 // GPU: each launch's time comes from CUDA events (path tracing, then the
 // accumulation and, as a viewer does, the tone-map), over many launches after
 // a warm-up. CPU: each launch is one render() call of spp-per-launch samples,
-// timed by the wall clock.
+// timed by the wall clock. For each scene the GPU backend also reports what
+// building it cost: acceleration-structure build times and device memory.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -119,6 +120,15 @@ struct Result {
   double rays_per_s = 0;          // rays / GPU time of the timed launches
 };
 
+// One scene's size and, on the GPU, the cost of building it.
+struct SceneBuild {
+  std::string scene;
+  size_t triangles = 0, instances = 0, spheres = 0, textures = 0;
+  SceneBuildStats stats;
+};
+
+double mib(uint64_t bytes) { return double(bytes) / (1024.0 * 1024.0); }
+
 int run_bench(const BenchArgs& a) {
   std::vector<std::string> scene_names = split_list(a.scenes);
   if (scene_names.empty())
@@ -130,6 +140,7 @@ int run_bench(const BenchArgs& a) {
   if (a.spp_per_launch < 1) throw std::runtime_error("--spp-per-launch must be at least 1");
 
   std::vector<Result> results;
+  std::vector<SceneBuild> builds;
   std::string backend_name, device_name;
   std::vector<std::pair<std::string, std::string>> info;
   int W = 0, H = 0, launches = 0, warmup = 0;
@@ -173,6 +184,16 @@ int run_bench(const BenchArgs& a) {
 #if PN_HAVE_OPTIX
     if (auto* ob = dynamic_cast<OptixBackend*>(backend.get())) ob->set_display(!a.no_display, 0.f);
 #endif
+    {
+      SceneBuild b;
+      b.scene = scene_name;
+      b.triangles = scene.triangle_count();
+      b.instances = scene.instances.size();
+      b.spheres = scene.spheres.size();
+      b.textures = scene.textures.size();
+      b.stats = backend->scene_build_stats();
+      builds.push_back(b);
+    }
 
     for (Strategy strategy : strategies) {
       FrameSpec frame = frame_spec(scene);
@@ -241,6 +262,22 @@ int run_bench(const BenchArgs& a) {
                 r.msamples_per_s, rays, vs);
   }
 
+  // ---- Scene builds (GPU) ----
+  bool any_build = false;
+  for (const SceneBuild& b : builds) any_build = any_build || b.stats.valid;
+  if (any_build) {
+    std::printf("\nscene build (GPU): acceleration structures (host clock, build + compaction) and device memory (MiB)\n");
+    std::printf("%-16s %11s %5s %9s %9s %9s %9s %9s %11s %11s\n", "scene", "triangles", "GAS", "GAS ms", "IAS ms",
+                "accel", "buffers", "textures", "used before", "used after");
+    for (const SceneBuild& b : builds) {
+      if (!b.stats.valid) continue;
+      const SceneBuildStats& s = b.stats;
+      std::printf("%-16s %11zu %5u %9.2f %9.2f %9.2f %9.2f %9.2f %11.1f %11.1f\n", b.scene.c_str(), b.triangles,
+                  s.gas_count, s.gas_build_ms, s.ias_build_ms, mib(s.accel_bytes), mib(s.scene_bytes),
+                  mib(s.texture_bytes), mib(s.device_used_before), mib(s.device_used_after));
+    }
+  }
+
   // ---- JSON ----
   if (!a.json_path.empty()) {
     json j;
@@ -282,6 +319,33 @@ int run_bench(const BenchArgs& a) {
       rs.push_back(o);
     }
     j["results"] = rs;
+    json sb = json::array();
+    for (const SceneBuild& b : builds) {
+      json o = {{"scene", b.scene},
+                {"triangles", b.triangles},
+                {"instances", b.instances},
+                {"spheres", b.spheres},
+                {"textures", b.textures}};
+      if (b.stats.valid) {
+        const SceneBuildStats& s = b.stats;
+        o["gas_count"] = s.gas_count;
+        o["gas_build_ms"] = s.gas_build_ms;
+        o["ias_build_ms"] = s.ias_build_ms;
+        o["accel_mib"] = mib(s.accel_bytes);
+        o["scene_buffers_mib"] = mib(s.scene_bytes);
+        o["textures_mib"] = mib(s.texture_bytes);
+        o["scene_total_mib"] = mib(s.accel_bytes + s.scene_bytes + s.texture_bytes);
+        o["device_used_before_mib"] = mib(s.device_used_before);
+        o["device_used_after_mib"] = mib(s.device_used_after);
+        o["device_used_delta_mib"] = mib(s.device_used_after) - mib(s.device_used_before);
+      }
+      sb.push_back(o);
+    }
+    j["scene_builds"] = sb;
+    j["scene_build_notes"] =
+        "triangles counted per instance; build times by the host clock around synchronised optixAccelBuild (+ "
+        "compaction) calls; device memory used = cudaMemGetInfo total - free (device-wide), before the scene was "
+        "built (CUDA and OptiX contexts exist) and after the pipeline, acceleration structures, buffers and textures";
     std::ofstream f(a.json_path);
     if (!f) throw std::runtime_error(a.json_path + ": cannot write");
     f << j.dump(2) << "\n";

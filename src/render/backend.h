@@ -43,6 +43,20 @@ struct RenderStats {
   uint64_t rays = 0;                   // rays traced (path + shadow rays), counted exactly; 0 = not counted
 };
 
+// What building a scene cost a GPU backend (`bench` reports it): acceleration
+// structure build times and the device memory the scene holds.
+struct SceneBuildStats {
+  bool valid = false;          // false: the backend measures none of this (CPU)
+  uint32_t gas_count = 0;      // geometry acceleration structures (meshes + spheres)
+  double gas_build_ms = 0;     // all GASes: build + compaction, host clock around synchronised calls
+  double ias_build_ms = 0;     // the instance acceleration structure
+  uint64_t accel_bytes = 0;    // final (compacted) GAS and IAS buffers
+  uint64_t scene_bytes = 0;    // geometry, instance, sphere, light, material and environment arrays
+  uint64_t texture_bytes = 0;  // texel storage of the textures (CUDA arrays)
+  uint64_t device_used_before = 0;  // cudaMemGetInfo total - free, device-wide: before the scene was built
+  uint64_t device_used_after = 0;   // ... and after (pipeline, accelerations, scene, textures)
+};
+
 class Backend {
  public:
   virtual ~Backend() = default;
@@ -57,6 +71,8 @@ class Backend {
   virtual RenderStats last_render_stats() const { return {}; }
   // Facts about the device for reports (GPU name, driver, versions), in order.
   virtual std::vector<std::pair<std::string, std::string>> device_info() const { return {}; }
+  // Costs of building the scene on the device (GPU backends).
+  virtual SceneBuildStats scene_build_stats() const { return {}; }
 };
 
 struct BackendOptions {

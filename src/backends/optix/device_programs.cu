@@ -3,17 +3,23 @@
 //
 // The raygen program runs THE integrator, pn::render_sample from
 // core/integrator.h, with a Tracer whose two queries are optixTrace calls:
-//   intersect(): closest hit. The closest-hit programs only rebuild the hit
-//                (point, geometric normal, material, light) with the same core
-//                helpers the CPU backend uses, and return it in payload registers.
-//   occluded():  any hit. Terminate on the first hit, no closest-hit, no
-//                any-hit program; the shadow miss program marks the ray visible.
+//   intersect(): closest hit. The closest-hit programs only report what the
+//                CPU backend's Embree query reports (a HitRecord: t, instance,
+//                primitive, barycentrics) in payload registers; the integrator
+//                turns it into a shading point with core/scene_view.h.
+//   occluded():  any hit. Terminate on the first hit, no closest-hit; the
+//                shadow miss program marks the ray visible.
+// Both skip alpha-masked holes: the mesh hit group's any-hit program asks the
+// core's alpha_discards(), as the CPU's Embree filter functions do. Geometry
+// without a masked material has any-hit disabled (geometry and instance flags;
+// the ray flags too when the scene has no masked material at all).
 // No shading happens outside render_sample.
 #include <optix.h>
 
 #include "backends/optix/launch_params.h"
 #include "core/geometry.h"
 #include "core/integrator.h"
+#include "core/scene_view.h"
 
 namespace pn {
 namespace optix {
@@ -37,17 +43,17 @@ __forceinline__ __device__ Vec3 to_vec3(float3 v) { return Vec3(v.x, v.y, v.z); 
 struct Tracer {
   mutable uint32_t rays = 0;
 
-  __device__ bool intersect(const Ray& ray, float tmax, SurfaceHit* hit) const {
+  __device__ bool intersect(const Ray& ray, float tmax, HitRecord* hit) const {
     ++rays;
-    uint32_t t, px, py, pz, nx, ny, nz, material = kMissMarker, light;
+    uint32_t t = 0, instance = kMissMarker, prim = 0, b1 = 0, b2 = 0;
     optixTrace(P().handle, to_float3(ray.o), to_float3(ray.d), 0.f, tmax, 0.f, OptixVisibilityMask(255),
-               OPTIX_RAY_FLAG_DISABLE_ANYHIT, 0, 1, kMissRadiance, t, px, py, pz, nx, ny, nz, material, light);
-    if (material == kMissMarker) return false;
+               P().ray_flags, 0, 1, kMissRadiance, t, instance, prim, b1, b2);
+    if (instance == kMissMarker) return false;
     hit->t = __uint_as_float(t);
-    hit->p = Vec3(__uint_as_float(px), __uint_as_float(py), __uint_as_float(pz));
-    hit->n = Vec3(__uint_as_float(nx), __uint_as_float(ny), __uint_as_float(nz));
-    hit->material = material;
-    hit->light = int32_t(light);
+    hit->instance = instance;
+    hit->prim = prim;
+    hit->b1 = __uint_as_float(b1);
+    hit->b2 = __uint_as_float(b2);
     return true;
   }
 
@@ -55,23 +61,18 @@ struct Tracer {
     ++rays;
     uint32_t occluded = 1u;  // the shadow miss program clears it
     optixTrace(P().handle, to_float3(ray.o), to_float3(ray.d), 0.f, tmax, 0.f, OptixVisibilityMask(255),
-               OPTIX_RAY_FLAG_TERMINATE_ON_FIRST_HIT | OPTIX_RAY_FLAG_DISABLE_CLOSESTHIT |
-                   OPTIX_RAY_FLAG_DISABLE_ANYHIT,
-               0, 1, kMissShadow, occluded);
+               P().ray_flags | OPTIX_RAY_FLAG_TERMINATE_ON_FIRST_HIT | OPTIX_RAY_FLAG_DISABLE_CLOSESTHIT, 0, 1,
+               kMissShadow, occluded);
     return occluded != 0u;
   }
 };
 
-__forceinline__ __device__ void set_hit_payload(float t, Vec3 p, Vec3 n, uint32_t material, int32_t light) {
+__forceinline__ __device__ void set_hit_payload(float t, uint32_t instance, uint32_t prim, float b1, float b2) {
   optixSetPayload_0(__float_as_uint(t));
-  optixSetPayload_1(__float_as_uint(p.x));
-  optixSetPayload_2(__float_as_uint(p.y));
-  optixSetPayload_3(__float_as_uint(p.z));
-  optixSetPayload_4(__float_as_uint(n.x));
-  optixSetPayload_5(__float_as_uint(n.y));
-  optixSetPayload_6(__float_as_uint(n.z));
-  optixSetPayload_7(material);
-  optixSetPayload_8(uint32_t(light));
+  optixSetPayload_1(instance);
+  optixSetPayload_2(prim);
+  optixSetPayload_3(__float_as_uint(b1));
+  optixSetPayload_4(__float_as_uint(b2));
 }
 
 // Thread t of the launch's T threads takes pixels t, t + T, t + 2T, ...: one
@@ -128,39 +129,36 @@ using namespace pn::optix;
 PN_STRATEGIES(PN_X)
 #undef PN_X
 
-extern "C" __global__ void __miss__radiance() { optixSetPayload_7(kMissMarker); }
+extern "C" __global__ void __miss__radiance() { optixSetPayload_1(kMissMarker); }
 
 extern "C" __global__ void __miss__shadow() { optixSetPayload_0(0u); }
 
-// A triangle of a placed mesh: barycentric reconstruction in object space, then
-// the instance transform, exactly as the CPU backend does it.
-__forceinline__ __device__ void report_mesh_hit(const DeviceInstance& inst, uint32_t triangle) {
-  const uint32_t* tri = inst.indices + 3u * triangle;
-  const float2 b = optixGetTriangleBarycentrics();
-  Vec3 p, n;
-  triangle_hit(inst.positions[tri[0]], inst.positions[tri[1]], inst.positions[tri[2]], b.x, b.y, &p, &n);
-  instance_to_world(inst.to_world, inst.to_object, &p, &n);
-  set_hit_payload(optixGetRayTmax(), p, n, inst.material, inst.light);
-}
-
+// A triangle of a placed mesh: the IAS instance's instanceId is its index in
+// SceneView::instances; the integrator rebuilds the hit (resolve_hit).
 extern "C" __global__ void __closesthit__mesh() {
-  report_mesh_hit(P().instances[optixGetInstanceId()], optixGetPrimitiveIndex());
+  const float2 b = optixGetTriangleBarycentrics();
+  set_hit_payload(optixGetRayTmax(), optixGetInstanceId(), optixGetPrimitiveIndex(), b.x, b.y);
 }
 
-// A sphere (built-in primitive or custom): the sphere instance has the identity
-// transform, so the world ray is the ray the hit distance refers to.
+// Alpha masks: a candidate triangle hit where the material's alpha is below its
+// cutoff is a hole, for radiance and shadow rays alike.
+extern "C" __global__ void __anyhit__mesh() {
+  const SceneView& scene = P().scene;
+  const float2 b = optixGetTriangleBarycentrics();
+  if (alpha_discards(scene, scene.instances[optixGetInstanceId()], optixGetPrimitiveIndex(), b.x, b.y))
+    optixIgnoreIntersection();
+}
+
+// A sphere (built-in primitive or custom): primitive i of the spheres' GAS is
+// SceneView::spheres[i]; its instance has the identity transform, so t is the
+// world ray's, as resolve_hit expects.
 extern "C" __global__ void __closesthit__sphere() {
-  const DeviceSphere& s = P().spheres[optixGetPrimitiveIndex()];
-  const float t = optixGetRayTmax();
-  Vec3 p, n;
-  sphere_hit(s.center, s.radius, Ray(to_vec3(optixGetWorldRayOrigin()), to_vec3(optixGetWorldRayDirection())), t,
-             &p, &n);
-  set_hit_payload(t, p, n, s.material, s.light);
+  set_hit_payload(optixGetRayTmax(), kSphereInstance, optixGetPrimitiveIndex(), 0.f, 0.f);
 }
 
 // Custom-primitive spheres: the core's ray-sphere test, as Embree's user geometry.
 extern "C" __global__ void __intersection__sphere() {
-  const DeviceSphere& s = P().spheres[optixGetPrimitiveIndex()];
+  const SphereView& s = P().scene.spheres[optixGetPrimitiveIndex()];
   const Ray ray(to_vec3(optixGetObjectRayOrigin()), to_vec3(optixGetObjectRayDirection()));
   float t;
   if (intersect_sphere(ray, s.center, s.radius, optixGetRayTmin(), optixGetRayTmax(), &t))

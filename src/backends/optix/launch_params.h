@@ -1,6 +1,7 @@
 // What the host hands the OptiX device programs: one struct of launch
-// parameters (the `params` constant) plus the per-instance and per-sphere
-// records the closest-hit programs read to rebuild a hit with the core helpers.
+// parameters (the `params` constant). The scene is the core's SceneView, its
+// arrays in device memory and its textures CUDA texture objects, so the device
+// programs resolve hits and shade with exactly the code the CPU backend runs.
 // Compiled by both the host C++ compiler and nvcc (-optix-ir).
 #pragma once
 
@@ -11,48 +12,41 @@
 
 #include "core/camera.h"
 #include "core/integrator.h"
-#include "core/transform.h"
-#include "core/vec.h"
+#include "core/scene_view.h"
 
 namespace pn {
 namespace optix {
 
-// One placed mesh: the IAS instance whose instanceId is this record's index.
-struct DeviceInstance {
-  Affine to_world;
-  Affine to_object;
-  const Vec3* positions = nullptr;  // the mesh's object-space vertices
-  const uint32_t* indices = nullptr;  // 3 per triangle
-  uint32_t material = 0;
-  int32_t light = -1;
-};
-
-// One sphere, world space; primitive i of the sphere GAS.
-struct DeviceSphere {
-  Vec3 center;
-  float radius = 1.f;
-  uint32_t material = 0;
-  int32_t light = -1;
-};
-
-// Payload register 7 holds the material, or this value when the ray missed.
+// Payload register 1 (the instance) holds this value when a radiance ray missed.
 constexpr uint32_t kMissMarker = 0xFFFFFFFFu;
+static_assert(kMissMarker != kSphereInstance, "miss and sphere markers must differ");
 
-// SBT layout: one ray type; hit groups by geometry kind (instance sbtOffset),
-// miss programs by ray kind (the missSBTIndex of optixTrace).
+// Payload registers of a radiance ray: t, instance, primitive, b1, b2 (a
+// HitRecord); a shadow ray uses register 0 alone (occluded).
+constexpr unsigned kNumPayloadValues = 5;
+
+// Program groups: hit groups by geometry kind, miss programs by ray kind (the
+// missSBTIndex of optixTrace).
 enum : uint32_t { kHitGroupMesh = 0, kHitGroupSphere = 1, kNumHitGroups = 2 };
 enum : uint32_t { kMissRadiance = 0, kMissShadow = 1, kNumMissPrograms = 2 };
 
+// Hit-group SBT records (one ray type). A mesh GAS has one SBT record (index 0),
+// or two when its triangles mix opaque and alpha-masked materials (record 0:
+// opaque, any-hit disabled by the geometry flags; record 1: masked); both
+// records are the mesh hit group. The spheres' instance starts at kSbtSphere.
+enum : uint32_t { kSbtMesh = 0, kSbtSphere = 2, kNumHitRecords = 3 };
+
 struct LaunchParams {
   OptixTraversableHandle handle = 0;  // the IAS; 0 for an empty scene (every ray misses)
-  SceneView scene;                    // lights and materials in device memory
+  SceneView scene;                    // every array in device memory, textures as texture objects
   Camera camera;
   IntegratorSettings integrator;
   uint32_t seed = 0;
   uint32_t first_sample = 0;  // sample index of this launch's first sample of every pixel
   uint32_t spp = 1;           // samples per pixel in this launch
-  const DeviceInstance* instances = nullptr;
-  const DeviceSphere* spheres = nullptr;
+  // OPTIX_RAY_FLAG_DISABLE_ANYHIT when no surface is alpha-masked, else
+  // OPTIX_RAY_FLAG_NONE; added to the flags of every ray.
+  uint32_t ray_flags = 0;
   // Written for every pixel by each launch (one thread owns a pixel):
   //   sum.xyz    sum of the launch's finite sample values   sum.w    rays traced
   //   sum_sq.xyz sum of their squares                        sum_sq.w non-finite samples

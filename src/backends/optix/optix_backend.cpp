@@ -1,7 +1,8 @@
 // OptiX backend, host side: device and context, acceleration structures (one
 // compacted GAS per mesh, one GAS of spheres, an IAS over all instances), the
-// pipeline built from the embedded OptiX-IR, and progressive launches with
-// per-launch CUDA-event timing.
+// scene's arrays and textures in device memory (the core SceneView the device
+// programs shade with), the pipeline built from the embedded OptiX-IR, and
+// progressive launches with per-launch CUDA-event timing.
 #include "backends/optix/optix_backend.h"
 
 #include <dlfcn.h>
@@ -9,6 +10,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -29,6 +31,7 @@
 #include "backends/optix/kernels.h"
 #include "backends/optix/launch_params.h"
 #include "core/geometry.h"
+#include "core/scene_view.h"
 
 // The device programs, OptiX-IR embedded at build time (embed_file.cmake).
 extern const unsigned char penumbra_optix_ir[];
@@ -37,8 +40,6 @@ extern const size_t penumbra_optix_ir_size;
 namespace pn {
 namespace {
 
-using optix::DeviceInstance;
-using optix::DeviceSphere;
 using optix::LaunchParams;
 
 // ---- Errors: every CUDA and OptiX call is checked; messages are one line. ------
@@ -81,6 +82,16 @@ std::string format_bytes(double b) {
   else if (b >= 1024.0 * 1024) std::snprintf(buf, sizeof buf, "%.1f MiB", b / (1024.0 * 1024));
   else std::snprintf(buf, sizeof buf, "%.0f bytes", b);
   return buf;
+}
+
+// Device-wide memory in use (all processes), by cudaMemGetInfo; 0 if unknown.
+uint64_t device_memory_used() {
+  size_t free_b = 0, total_b = 0;
+  if (cudaMemGetInfo(&free_b, &total_b) != cudaSuccess) {
+    cudaGetLastError();
+    return 0;
+  }
+  return uint64_t(total_b - free_b);
 }
 
 std::string optix_version_string(unsigned v) {
@@ -187,6 +198,16 @@ struct SceneSize {
   }
 };
 
+// The out-of-memory message of a failed allocation (shared by buffers and textures).
+[[noreturn]] void throw_out_of_memory(size_t bytes, const std::string& what, const SceneSize& scene) {
+  cudaGetLastError();  // clear it
+  size_t free_b = 0, total_b = 0;
+  cudaMemGetInfo(&free_b, &total_b);
+  throw std::runtime_error("out of GPU memory: " + std::to_string(bytes) + " bytes (" + format_bytes(double(bytes)) +
+                           ") requested for " + what + ", " + format_bytes(double(free_b)) + " of " +
+                           format_bytes(double(total_b)) + " free; scene: " + scene.describe());
+}
+
 class DeviceBuffer {
  public:
   DeviceBuffer() = default;
@@ -209,13 +230,8 @@ class DeviceBuffer {
     if (bytes == 0) return;
     cudaError_t e = cudaMalloc(&ptr_, bytes);
     if (e == cudaErrorMemoryAllocation) {
-      cudaGetLastError();  // clear it
-      size_t free_b = 0, total_b = 0;
-      cudaMemGetInfo(&free_b, &total_b);
-      throw std::runtime_error("out of GPU memory: " + std::to_string(bytes) + " bytes (" +
-                               format_bytes(double(bytes)) + ") requested for " + what + ", " +
-                               format_bytes(double(free_b)) + " of " + format_bytes(double(total_b)) +
-                               " free; scene: " + scene.describe());
+      ptr_ = nullptr;
+      throw_out_of_memory(bytes, what, scene);
     }
     check_cuda(e, "cudaMalloc");
     size_ = bytes;
@@ -238,6 +254,74 @@ class DeviceBuffer {
  private:
   void* ptr_ = nullptr;
   size_t size_ = 0;
+};
+
+// One of Scene::textures as a CUDA array and a texture object with the settings
+// core/texture.h describes: 8-bit texels read as normalized floats (sRGB decoded
+// by the texture unit before filtering for colour textures), float texels as
+// they are; bilinear or nearest; repeat wrapping; normalized coordinates.
+class DeviceTexture {
+ public:
+  DeviceTexture() = default;
+  DeviceTexture(const DeviceTexture&) = delete;
+  DeviceTexture& operator=(const DeviceTexture&) = delete;
+  DeviceTexture(DeviceTexture&& o) noexcept : array_(o.array_), object_(o.object_), bytes_(o.bytes_) {
+    o.array_ = nullptr, o.object_ = 0, o.bytes_ = 0;
+  }
+  ~DeviceTexture() { release(); }
+
+  // An empty image (no texels) becomes one white texel, as the CPU's lookup of
+  // an empty texture returns white.
+  void create(const TextureImage& image, const SceneSize& scene) {
+    release();
+    const bool is_float = image.format == TexelFormat::Rgba32f;
+    const size_t texel = is_float ? 4 * sizeof(float) : 4;
+    int w = image.width, h = image.height;
+    const void* texels = image.texels.data();
+    static const uint8_t white8[4] = {255, 255, 255, 255};
+    static const float white32[4] = {1.f, 1.f, 1.f, 1.f};
+    if (w <= 0 || h <= 0 || image.texels.size() < size_t(w) * size_t(h) * texel) {
+      w = h = 1;
+      texels = is_float ? static_cast<const void*>(white32) : static_cast<const void*>(white8);
+    }
+    const cudaChannelFormatDesc desc = is_float ? cudaCreateChannelDesc<float4>() : cudaCreateChannelDesc<uchar4>();
+    const size_t bytes = size_t(w) * size_t(h) * texel;
+    cudaError_t e = cudaMallocArray(&array_, &desc, size_t(w), size_t(h));
+    if (e == cudaErrorMemoryAllocation) throw_out_of_memory(bytes, "the texture " + image.path, scene);
+    if (e != cudaSuccess) {
+      array_ = nullptr;
+      throw std::runtime_error(image.path + ": cannot create a " + std::to_string(w) + "x" + std::to_string(h) +
+                               " GPU texture (cudaMallocArray: " + cudaGetErrorName(e) + ": " + cudaGetErrorString(e) +
+                               ")");
+    }
+    bytes_ = bytes;
+    PN_CUDA(cudaMemcpy2DToArray(array_, 0, 0, texels, size_t(w) * texel, size_t(w) * texel, size_t(h),
+                                cudaMemcpyHostToDevice));
+    cudaResourceDesc res = {};
+    res.resType = cudaResourceTypeArray;
+    res.res.array.array = array_;
+    cudaTextureDesc td = {};
+    td.addressMode[0] = td.addressMode[1] = td.addressMode[2] = cudaAddressModeWrap;
+    td.filterMode = image.nearest ? cudaFilterModePoint : cudaFilterModeLinear;
+    td.readMode = is_float ? cudaReadModeElementType : cudaReadModeNormalizedFloat;
+    td.sRGB = image.format == TexelFormat::Rgba8Srgb ? 1 : 0;
+    td.normalizedCoords = 1;
+    PN_CUDA(cudaCreateTextureObject(&object_, &res, &td, nullptr));
+  }
+  void release() {
+    if (object_) cudaDestroyTextureObject(object_);  // never throws from a destructor
+    if (array_) cudaFreeArray(array_);
+    object_ = 0;
+    array_ = nullptr;
+    bytes_ = 0;
+  }
+  cudaTextureObject_t object() const { return object_; }
+  size_t bytes() const { return bytes_; }
+
+ private:
+  cudaArray_t array_ = nullptr;
+  cudaTextureObject_t object_ = 0;
+  size_t bytes_ = 0;
 };
 
 template <class T>
@@ -284,10 +368,13 @@ class OptixBackendImpl final : public OptixBackend {
     }
     try {
       init_device();
+      build_stats_.valid = true;
+      build_stats_.device_used_before = device_memory_used();
       build_pipeline();
       build_scene_data();
       build_accels();
       build_sbt();
+      build_stats_.device_used_after = device_memory_used();
     } catch (...) {
       destroy();
       throw;
@@ -315,6 +402,7 @@ class OptixBackendImpl final : public OptixBackend {
   }
 
   RenderStats last_render_stats() const override { return stats_; }
+  SceneBuildStats scene_build_stats() const override { return build_stats_; }
 
   void set_spp_per_launch(int spp) override { spp_per_launch_ = std::max(0, spp); }
   void set_display(bool enabled, float exposure_stops) override {
@@ -323,6 +411,7 @@ class OptixBackendImpl final : public OptixBackend {
   }
   uint64_t accumulated_samples() const override { return accumulated_; }
   const void* device_rgba8() const override { return rgba_.as<void>(); }
+  const double* device_sums() const override { return acc_sum_.as<double>(); }
 
   void reset(const FrameSpec& frame) override {
     const int W = frame.camera.width, H = frame.camera.height;
@@ -499,7 +588,7 @@ class OptixBackendImpl final : public OptixBackend {
     OptixPipelineCompileOptions pco = {};
     pco.usesMotionBlur = 0;
     pco.traversableGraphFlags = OPTIX_TRAVERSABLE_GRAPH_FLAG_ALLOW_SINGLE_LEVEL_INSTANCING;
-    pco.numPayloadValues = 9;
+    pco.numPayloadValues = optix::kNumPayloadValues;
     pco.numAttributeValues = 2;
     pco.exceptionFlags = OPTIX_EXCEPTION_FLAG_NONE;
     pco.pipelineLaunchParamsVariableName = "params";
@@ -555,6 +644,8 @@ class OptixBackendImpl final : public OptixBackend {
     d.kind = OPTIX_PROGRAM_GROUP_KIND_HITGROUP;
     d.hitgroup.moduleCH = module_;
     d.hitgroup.entryFunctionNameCH = "__closesthit__mesh";
+    d.hitgroup.moduleAH = module_;  // alpha masks; disabled by the flags of opaque geometry
+    d.hitgroup.entryFunctionNameAH = "__anyhit__mesh";
     make_group(d, &hit_[optix::kHitGroupMesh]);
 
     d = {};
@@ -588,48 +679,126 @@ class OptixBackendImpl final : public OptixBackend {
     PN_OPTIX(optixPipelineSetStackSize(pipeline_, dc_traversal, dc_state, continuation, 2));
   }
 
+  // The scene's arrays in device memory and the SceneView that points at them
+  // (the device twin of make_host_view in scene/scene.cpp).
   void build_scene_data() {
-    // Mesh geometry on the device, once per mesh; instances refer to it.
-    mesh_vertices_.resize(scene_.meshes.size());
-    mesh_indices_.resize(scene_.meshes.size());
+    auto upload = [&](DeviceBuffer& buf, const auto& v, const char* what) {
+      buf.upload(v, what, size_);
+      build_stats_.scene_bytes += buf.size();
+    };
+    // Mesh geometry on the device, once per placed mesh; instances refer to it.
+    std::vector<bool> used(scene_.meshes.size(), false);
+    for (const Instance& inst : scene_.instances) used.at(inst.mesh) = true;
+    meshes_.clear();
+    meshes_.resize(scene_.meshes.size());
     for (size_t m = 0; m < scene_.meshes.size(); ++m) {
+      if (!used[m]) continue;
       const TriangleMesh& mesh = scene_.meshes[m];
-      mesh_vertices_[m].upload(mesh.positions, "mesh vertices", size_);
-      mesh_indices_[m].upload(mesh.indices, "mesh indices", size_);
+      MeshBuffers& d = meshes_[m];
+      upload(d.positions, mesh.positions, "mesh vertices");
+      upload(d.indices, mesh.indices, "mesh indices");
+      upload(d.normals, mesh.normals, "mesh normals");
+      upload(d.uvs, mesh.uvs, "mesh texture coordinates");
+      upload(d.face_materials, mesh.face_materials, "mesh face materials");
+      upload(d.face_lights, mesh.face_lights, "mesh face lights");
     }
-    std::vector<DeviceInstance> instances;
+    std::vector<InstanceView> instances;
     instances.reserve(scene_.instances.size());
     for (const Instance& inst : scene_.instances) {
-      DeviceInstance d;
-      d.to_world = inst.to_world;
-      d.to_object = inst.to_object;
-      d.positions = mesh_vertices_.at(inst.mesh).as<Vec3>();
-      d.indices = mesh_indices_.at(inst.mesh).as<uint32_t>();
-      d.material = inst.material;
-      d.light = inst.light;
-      instances.push_back(d);
+      const TriangleMesh& mesh = scene_.meshes.at(inst.mesh);
+      const MeshBuffers& d = meshes_.at(inst.mesh);
+      InstanceView v;
+      v.to_world = inst.to_world;
+      v.to_object = inst.to_object;
+      v.mesh.positions = d.positions.as<Vec3>();  // null where the host array is empty
+      v.mesh.indices = d.indices.as<uint32_t>();
+      v.mesh.normals = d.normals.as<Vec3>();
+      v.mesh.uvs = d.uvs.as<Vec2>();
+      v.mesh.face_materials = d.face_materials.as<uint32_t>();
+      v.mesh.face_lights = d.face_lights.as<int32_t>();
+      v.mesh.num_triangles = uint32_t(mesh.indices.size());
+      v.material = inst.material;
+      v.light = inst.light;
+      v.light_base = inst.light_base;
+      instances.push_back(v);
     }
-    instances_.upload(instances, "instance records", size_);
-    std::vector<DeviceSphere> spheres;
-    for (const Sphere& s : scene_.spheres) {
-      DeviceSphere d;
-      d.center = s.center;
-      d.radius = s.radius;
-      d.material = s.material;
-      d.light = s.light;
-      spheres.push_back(d);
-    }
-    spheres_.upload(spheres, "sphere records", size_);
-    lights_.upload(scene_.lights, "lights", size_);
-    materials_.upload(scene_.materials, "materials", size_);
+    upload(instances_, instances, "instance records");
+    std::vector<SphereView> spheres;
+    spheres.reserve(scene_.spheres.size());
+    for (const Sphere& sp : scene_.spheres) spheres.push_back(SphereView{sp.center, sp.radius, sp.material, sp.light});
+    upload(spheres_, spheres, "sphere records");
+    upload(lights_, scene_.lights, "lights");
+    upload(light_cdf_, scene_.light_cdf, "the light selection CDF");
+    upload(materials_, scene_.materials, "materials");
 
-    base_params_.scene.lights = lights_.as<Light>();
-    base_params_.scene.num_lights = uint32_t(scene_.lights.size());
-    base_params_.scene.materials = materials_.as<Material>();
-    base_params_.scene.num_materials = uint32_t(scene_.materials.size());
-    base_params_.scene.background = scene_.background;
-    base_params_.instances = instances_.as<DeviceInstance>();
-    base_params_.spheres = spheres_.as<DeviceSphere>();
+    // Textures: one CUDA array and texture object each.
+    textures_.clear();
+    textures_.resize(scene_.textures.size());
+    std::vector<TextureView> views(scene_.textures.size());
+    for (size_t i = 0; i < scene_.textures.size(); ++i) {
+      const TextureImage& img = scene_.textures[i];
+      textures_[i].create(img, size_);
+      build_stats_.texture_bytes += textures_[i].bytes();
+      TextureView& v = views[i];
+      v.handle = uint64_t(textures_[i].object());
+      v.texels = nullptr;
+      v.width = img.width;
+      v.height = img.height;
+      v.format = img.format;
+      v.nearest = img.nearest;
+    }
+    upload(texture_views_, views, "texture records");
+
+    SceneView& v = base_params_.scene;
+    v = SceneView();
+    v.lights = lights_.as<Light>();
+    v.num_lights = uint32_t(scene_.lights.size());
+    v.light_cdf = light_cdf_.as<float>();
+    v.materials = materials_.as<Material>();
+    v.num_materials = uint32_t(scene_.materials.size());
+    v.textures = texture_views_.as<TextureView>();
+    v.num_textures = uint32_t(views.size());
+    v.instances = instances_.as<InstanceView>();
+    v.num_instances = uint32_t(instances.size());
+    v.spheres = spheres_.as<SphereView>();
+    v.num_spheres = uint32_t(spheres.size());
+    v.background = scene_.background;
+    const Environment& env = scene_.environment;
+    if (env.texture >= 0 && size_t(env.texture) < views.size()) {
+      EnvironmentView& e = v.environment;
+      e.image = views[size_t(env.texture)];
+      e.width = uint32_t(e.image.width);
+      e.height = uint32_t(e.image.height);
+      upload(env_marginal_func_, env.marginal_func, "the environment's distribution");
+      upload(env_marginal_cdf_, env.marginal_cdf, "the environment's distribution");
+      upload(env_conditional_func_, env.conditional_func, "the environment's distribution");
+      upload(env_conditional_cdf_, env.conditional_cdf, "the environment's distribution");
+      e.marginal.func = env_marginal_func_.as<float>();
+      e.marginal.cdf = env_marginal_cdf_.as<float>();
+      e.marginal.n = e.height;
+      e.marginal.integral = env.integral;
+      e.conditional_func = env_conditional_func_.as<float>();
+      e.conditional_cdf = env_conditional_cdf_.as<float>();
+      const float rad = env.rotation * kPi / 180.f;
+      e.cos_rot = std::cos(rad);
+      e.sin_rot = std::sin(rad);
+      e.scale = env.scale;
+      for (size_t i = 0; i < scene_.lights.size(); ++i)
+        if (scene_.lights[i].type == LightType::Environment) v.environment_light = int32_t(i);
+    }
+  }
+
+  // Whether an instance's triangles may be alpha-masked (as the CPU backend
+  // decides which meshes get the Embree filter).
+  bool masked_material(uint32_t material) const {
+    return material < scene_.materials.size() && scene_.materials[material].alpha_mode == AlphaMode::Mask;
+  }
+  bool instance_masked(const Instance& inst) const {
+    const TriangleMesh& m = scene_.meshes[inst.mesh];
+    if (m.face_materials.empty()) return masked_material(inst.material);
+    for (uint32_t fm : m.face_materials)
+      if (masked_material(fm)) return true;
+    return false;
   }
 
   // Builds one acceleration structure into `out`; compacts GASes.
@@ -668,11 +837,25 @@ class OptixBackendImpl final : public OptixBackend {
 
   void build_accels() {
     compacted_size_.alloc(sizeof(uint64_t), "acceleration structure sizes", size_);
-    const unsigned geometry_flags = OPTIX_GEOMETRY_FLAG_DISABLE_ANYHIT;
+    using Clock = std::chrono::steady_clock;
+    auto ms_since = [](Clock::time_point t0) {
+      return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    };
+    // Any-hit (alpha masks) only where a masked material can be hit: per GAS
+    // SBT record through the geometry flags, per instance through its flags.
+    static const unsigned kOpaque = OPTIX_GEOMETRY_FLAG_DISABLE_ANYHIT;
+    static const unsigned kMasked = OPTIX_GEOMETRY_FLAG_NONE;
+    static const unsigned kMixed[2] = {kOpaque, kMasked};  // SBT records 0 (opaque) and 1 (masked)
+
+    std::vector<bool> used(scene_.meshes.size(), false), mesh_masked(scene_.meshes.size(), false);
+    bool any_masked = false;
+    for (const Instance& inst : scene_.instances) {
+      used.at(inst.mesh) = true;
+      if (instance_masked(inst)) mesh_masked[inst.mesh] = true, any_masked = true;
+    }
+    base_params_.ray_flags = any_masked ? OPTIX_RAY_FLAG_NONE : OPTIX_RAY_FLAG_DISABLE_ANYHIT;
 
     // One GAS per used, non-empty mesh.
-    std::vector<bool> used(scene_.meshes.size(), false);
-    for (const Instance& inst : scene_.instances) used.at(inst.mesh) = true;
     mesh_gas_.resize(scene_.meshes.size());
     std::vector<OptixTraversableHandle> mesh_handle(scene_.meshes.size(), 0);
     for (size_t m = 0; m < scene_.meshes.size(); ++m) {
@@ -680,7 +863,7 @@ class OptixBackendImpl final : public OptixBackend {
       if (!used[m] || mesh.indices.empty() || mesh.positions.empty()) continue;
       OptixBuildInput in = {};
       in.type = OPTIX_BUILD_INPUT_TYPE_TRIANGLES;
-      CUdeviceptr vertices = mesh_vertices_[m].dptr();
+      CUdeviceptr vertices = meshes_[m].positions.dptr();
       in.triangleArray.vertexFormat = OPTIX_VERTEX_FORMAT_FLOAT3;
       in.triangleArray.vertexStrideInBytes = sizeof(Vec3);
       in.triangleArray.numVertices = unsigned(mesh.positions.size());
@@ -688,10 +871,33 @@ class OptixBackendImpl final : public OptixBackend {
       in.triangleArray.indexFormat = OPTIX_INDICES_FORMAT_UNSIGNED_INT3;
       in.triangleArray.indexStrideInBytes = 3 * sizeof(uint32_t);
       in.triangleArray.numIndexTriplets = unsigned(mesh.indices.size());
-      in.triangleArray.indexBuffer = mesh_indices_[m].dptr();
-      in.triangleArray.flags = &geometry_flags;
+      in.triangleArray.indexBuffer = meshes_[m].indices.dptr();
+      in.triangleArray.flags = mesh_masked[m] ? &kMasked : &kOpaque;
       in.triangleArray.numSbtRecords = 1;
+      // Per-face materials mixing opaque and masked ones: the masked triangles
+      // get SBT record 1, the only one whose any-hit program runs.
+      DeviceBuffer sbt_index;
+      if (mesh_masked[m] && !mesh.face_materials.empty()) {
+        std::vector<uint8_t> record(mesh.face_materials.size());
+        size_t masked = 0;
+        for (size_t t = 0; t < record.size(); ++t) {
+          record[t] = masked_material(mesh.face_materials[t]) ? 1 : 0;
+          masked += record[t];
+        }
+        if (masked < record.size()) {
+          sbt_index.upload(record, "a mesh's per-triangle SBT indices", size_);
+          in.triangleArray.flags = kMixed;
+          in.triangleArray.numSbtRecords = 2;
+          in.triangleArray.sbtIndexOffsetBuffer = sbt_index.dptr();
+          in.triangleArray.sbtIndexOffsetSizeInBytes = 1;
+          in.triangleArray.sbtIndexOffsetStrideInBytes = 1;
+        }
+      }
+      const auto t0 = Clock::now();
       mesh_handle[m] = build_accel(in, kGasBuildFlags, true, &mesh_gas_[m], "a mesh's acceleration structure");
+      build_stats_.gas_build_ms += ms_since(t0);
+      build_stats_.accel_bytes += mesh_gas_[m].size();
+      ++build_stats_.gas_count;
     }
 
     // The spheres' GAS, world space.
@@ -716,7 +922,7 @@ class OptixBackendImpl final : public OptixBackend {
         in.sphereArray.radiusBuffers = &radii_ptr;
         in.sphereArray.radiusStrideInBytes = sizeof(float);
         in.sphereArray.singleRadius = 0;
-        in.sphereArray.flags = &geometry_flags;
+        in.sphereArray.flags = &kOpaque;
         in.sphereArray.numSbtRecords = 1;
       } else {
         std::vector<OptixAabb> boxes(n);
@@ -731,13 +937,18 @@ class OptixBackendImpl final : public OptixBackend {
         in.customPrimitiveArray.aabbBuffers = &aabbs_ptr;
         in.customPrimitiveArray.numPrimitives = unsigned(n);
         in.customPrimitiveArray.strideInBytes = sizeof(OptixAabb);
-        in.customPrimitiveArray.flags = &geometry_flags;
+        in.customPrimitiveArray.flags = &kOpaque;
         in.customPrimitiveArray.numSbtRecords = 1;
       }
+      const auto t0 = Clock::now();
       sphere_handle = build_accel(in, kGasBuildFlags, true, &sphere_gas_, "the spheres' acceleration structure");
+      build_stats_.gas_build_ms += ms_since(t0);
+      build_stats_.accel_bytes += sphere_gas_.size();
+      ++build_stats_.gas_count;
     }
 
-    // The IAS: every placement of a mesh, plus the spheres' GAS once with the identity.
+    // The IAS: every placement of a mesh (instanceId = its index in
+    // SceneView::instances), plus the spheres' GAS once with the identity.
     std::vector<OptixInstance> instances;
     const Affine identity;
     for (size_t i = 0; i < scene_.instances.size(); ++i) {
@@ -746,9 +957,9 @@ class OptixBackendImpl final : public OptixBackend {
       OptixInstance o = {};
       std::memcpy(o.transform, inst.to_world.m, sizeof o.transform);
       o.instanceId = unsigned(i);
-      o.sbtOffset = optix::kHitGroupMesh;
+      o.sbtOffset = optix::kSbtMesh;
       o.visibilityMask = 255;
-      o.flags = OPTIX_INSTANCE_FLAG_DISABLE_ANYHIT;
+      o.flags = instance_masked(inst) ? OPTIX_INSTANCE_FLAG_NONE : OPTIX_INSTANCE_FLAG_DISABLE_ANYHIT;
       o.traversableHandle = mesh_handle[inst.mesh];
       instances.push_back(o);
     }
@@ -756,7 +967,7 @@ class OptixBackendImpl final : public OptixBackend {
       OptixInstance o = {};
       std::memcpy(o.transform, identity.m, sizeof o.transform);
       o.instanceId = unsigned(scene_.instances.size());
-      o.sbtOffset = optix::kHitGroupSphere;
+      o.sbtOffset = optix::kSbtSphere;
       o.visibilityMask = 255;
       o.flags = OPTIX_INSTANCE_FLAG_DISABLE_ANYHIT;
       o.traversableHandle = sphere_handle;
@@ -772,15 +983,22 @@ class OptixBackendImpl final : public OptixBackend {
     in.type = OPTIX_BUILD_INPUT_TYPE_INSTANCES;
     in.instanceArray.instances = ias_instances.dptr();
     in.instanceArray.numInstances = unsigned(instances.size());
+    const auto t0 = Clock::now();
     base_params_.handle = build_accel(in, OPTIX_BUILD_FLAG_PREFER_FAST_TRACE, false, &ias_, "the instance acceleration structure");
+    build_stats_.ias_build_ms = ms_since(t0);
+    build_stats_.accel_bytes += ias_.size();
   }
 
   void build_sbt() {
     std::vector<EmptyRecord> rg(raygen_.size());
     for (size_t i = 0; i < raygen_.size(); ++i) PN_OPTIX(optixSbtRecordPackHeader(raygen_[i], &rg[i]));
-    std::vector<EmptyRecord> miss(optix::kNumMissPrograms), hit(optix::kNumHitGroups);
+    std::vector<EmptyRecord> miss(optix::kNumMissPrograms), hit(optix::kNumHitRecords);
     for (uint32_t i = 0; i < optix::kNumMissPrograms; ++i) PN_OPTIX(optixSbtRecordPackHeader(miss_[i], &miss[i]));
-    for (uint32_t i = 0; i < optix::kNumHitGroups; ++i) PN_OPTIX(optixSbtRecordPackHeader(hit_[i], &hit[i]));
+    // Records kSbtMesh and kSbtMesh + 1 (a mixed mesh's masked triangles): the
+    // mesh hit group; kSbtSphere: the spheres'.
+    for (uint32_t i = 0; i < optix::kNumHitRecords; ++i)
+      PN_OPTIX(optixSbtRecordPackHeader(hit_[i < optix::kSbtSphere ? optix::kHitGroupMesh : optix::kHitGroupSphere],
+                                        &hit[i]));
     sbt_raygen_.upload(rg, "the shader binding table", size_);
     sbt_miss_.upload(miss, "the shader binding table", size_);
     sbt_hit_.upload(hit, "the shader binding table", size_);
@@ -791,7 +1009,7 @@ class OptixBackendImpl final : public OptixBackend {
     sbt_.missRecordCount = optix::kNumMissPrograms;
     sbt_.hitgroupRecordBase = sbt_hit_.dptr();
     sbt_.hitgroupRecordStrideInBytes = sizeof(EmptyRecord);
-    sbt_.hitgroupRecordCount = optix::kNumHitGroups;
+    sbt_.hitgroupRecordCount = optix::kNumHitRecords;
   }
 
   void ensure_rgba() {
@@ -820,11 +1038,12 @@ class OptixBackendImpl final : public OptixBackend {
         if (*e) cudaEventDestroy(*e), *e = nullptr;
     }
     mesh_gas_.clear();
-    mesh_vertices_.clear();
-    mesh_indices_.clear();
-    for (DeviceBuffer* b : {&sphere_gas_, &ias_, &instances_, &spheres_, &lights_, &materials_, &params_, &counters_,
-                            &compacted_size_, &sbt_raygen_, &sbt_miss_, &sbt_hit_, &launch_sum_, &launch_sum_sq_,
-                            &acc_sum_, &acc_sum_sq_, &rgba_})
+    meshes_.clear();
+    textures_.clear();  // destroys the texture objects and their arrays
+    for (DeviceBuffer* b : {&sphere_gas_, &ias_, &instances_, &spheres_, &lights_, &light_cdf_, &materials_,
+                            &texture_views_, &env_marginal_func_, &env_marginal_cdf_, &env_conditional_func_,
+                            &env_conditional_cdf_, &params_, &counters_, &compacted_size_, &sbt_raygen_, &sbt_miss_,
+                            &sbt_hit_, &launch_sum_, &launch_sum_sq_, &acc_sum_, &acc_sum_sq_, &rgba_})
       b->release();
     if (stream_) cudaStreamDestroy(stream_);
     stream_ = nullptr;
@@ -852,8 +1071,15 @@ class OptixBackendImpl final : public OptixBackend {
   OptixPipeline pipeline_ = nullptr;
   OptixShaderBindingTable sbt_ = {};
 
-  std::vector<DeviceBuffer> mesh_vertices_, mesh_indices_, mesh_gas_;
-  DeviceBuffer sphere_gas_, ias_, instances_, spheres_, lights_, materials_;
+  // A mesh's arrays on the device (empty buffers, null pointers, for absent ones).
+  struct MeshBuffers {
+    DeviceBuffer positions, indices, normals, uvs, face_materials, face_lights;
+  };
+  std::vector<MeshBuffers> meshes_;  // by scene mesh index; unplaced meshes stay empty
+  std::vector<DeviceBuffer> mesh_gas_;
+  std::vector<DeviceTexture> textures_;  // by scene texture index
+  DeviceBuffer sphere_gas_, ias_, instances_, spheres_, lights_, light_cdf_, materials_, texture_views_;
+  DeviceBuffer env_marginal_func_, env_marginal_cdf_, env_conditional_func_, env_conditional_cdf_;
   DeviceBuffer params_, counters_, compacted_size_, sbt_raygen_, sbt_miss_, sbt_hit_;
   DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, rgba_;
   LaunchParams base_params_;
@@ -862,6 +1088,7 @@ class OptixBackendImpl final : public OptixBackend {
   uint64_t accumulated_ = 0;
   uint64_t nonfinite_ = 0;
   RenderStats stats_;
+  SceneBuildStats build_stats_;
   std::vector<double> host_;
 };
 

@@ -37,6 +37,11 @@ class OptixBackend : public Backend {
   // at the top); valid after tonemap() or a launch with display on.
   virtual const void* device_rgba8() const = 0;
   virtual std::vector<uint8_t> download_rgba8() const = 0;
+  // The device accumulation's per-pixel sums since reset(): 3 doubles a pixel
+  // (RGB, row 0 at the top, laid out like Film::sum()), a CUDA device pointer;
+  // complete when accumulate() returns. The viewer's interop path adds them
+  // into its own device images (src/apps/viewer/device_image.h).
+  virtual const double* device_sums() const = 0;
   // Samples per pixel per launch; 0 = automatic (1 at 1 Mpixel and above, more
   // for small images so that each launch still fills the GPU).
   virtual void set_spp_per_launch(int spp) = 0;
