@@ -13,6 +13,13 @@
 #include "apps/viewer/camera_control.h"
 #include "apps/viewer/camera_path.h"
 #include "apps/viewer/progressive.h"
+#include "apps/viewer/tone_map.h"
+#if PN_TEST_DEVICE_IMAGE
+#include <cuda_runtime.h>
+
+#include "apps/viewer/device_image.h"
+#include "backends/optix/optix_backend.h"
+#endif
 #include "io/image.h"
 #include "render/backend.h"
 #include "scene/scene.h"
@@ -239,6 +246,99 @@ TEST(Display, ProgressiveFramesAreTheRendersImageAndItsPngBytes) {
         else ASSERT_EQ(got, to_srgb8(mean[(size_t(y) * 24 + x) * 3 + c] * gain)) << x << "," << y;
       }
 }
+
+// The interop path's kernel tone-maps with tone_map_pixel (tone_map.h), the
+// host path too: it must give the PNG writer's bytes for any sums and gains.
+TEST(Display, SharedPixelToneMapIsThePngEncoding) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 3.0);
+  const float* t = srgb8_thresholds();
+  for (int i = 0; i < 100000; ++i) {
+    const uint64_t n = 1 + rng() % 4096;
+    const double inv = 1.0 / double(n);
+    const float gain = std::exp2(float(int(rng() % 9) - 4) * 0.5f);
+    double sum[3] = {u(rng) * double(n), u(rng) * 1e-3 * double(n), i % 7 == 0 ? -1.0 : u(rng) * 0.05 * double(n)};
+    unsigned char px[4] = {1, 2, 3, 4};
+    tone_map_pixel(sum, inv, gain, t, px);
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(px[c], to_srgb8(float(sum[c] * inv) * gain)) << sum[c] << " " << n;
+    ASSERT_EQ(px[3], 255);
+  }
+  double nan3[3] = {std::nan(""), 1e300, 0.0};
+  unsigned char px[4];
+  tone_map_pixel(nan3, 1.0, 1.f, t, px);
+  EXPECT_EQ(px[0], 0);
+  EXPECT_EQ(px[1], 255);
+  EXPECT_EQ(px[2], 0);
+}
+
+TEST(Display, InteropOnlyWithOptixAndFallsBackInOneLine) {
+  int tries = 0;
+  auto ok = [&] { ++tries; return std::string(); };
+  auto fails = [&] { ++tries; return std::string("cudaGraphicsGLRegisterBuffer: cudaErrorUnknown (unknown error)"); };
+
+  DisplayChoice c = choose_display_path("auto", "cpu", true, ok);
+  EXPECT_EQ(c.path, DisplayPath::HostUpload);
+  EXPECT_EQ(tries, 0) << "the CPU backend never tries interop";
+  c = choose_display_path("auto", "optix", false, ok);
+  EXPECT_EQ(c.path, DisplayPath::HostUpload);
+  EXPECT_NE(c.note.find("without CUDA"), std::string::npos) << c.note;
+  EXPECT_EQ(tries, 0);
+
+  c = choose_display_path("auto", "optix", true, ok);
+  EXPECT_EQ(c.path, DisplayPath::Interop);
+  EXPECT_EQ(tries, 1);
+  EXPECT_STREQ(display_path_name(c.path), "CUDA-OpenGL interop");
+
+  c = choose_display_path("auto", "optix", true, fails);  // e.g. Mesa's OpenGL on an NVIDIA machine
+  EXPECT_EQ(c.path, DisplayPath::HostUpload);
+  EXPECT_NE(c.note.find("cudaErrorUnknown"), std::string::npos) << c.note;
+  EXPECT_NE(c.note.find("falling back to host upload"), std::string::npos) << c.note;
+  EXPECT_EQ(c.note.find('\n'), std::string::npos);
+
+  try {
+    choose_display_path("interop", "optix", true, fails);
+    FAIL() << "--display interop must fail where interop does";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("penumbra render"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(choose_display_path("interop", "cpu", true, ok), std::runtime_error);
+  tries = 0;
+  c = choose_display_path("host", "optix", true, ok);
+  EXPECT_EQ(c.path, DisplayPath::HostUpload);
+  EXPECT_EQ(tries, 0) << "--display host never tries interop";
+}
+
+#if PN_TEST_DEVICE_IMAGE
+// The interop path's device image against the host path on the same GPU: the
+// same sums (frames of 1+1+2 spp) and the same display bytes in a column range.
+// Runs where a GPU is (scripts/gpu_check.sh); skipped elsewhere.
+TEST(Display, DeviceImageIsTheHostImageOnTheGpu) {
+  std::string why;
+  if (!optix_available(&why)) GTEST_SKIP() << why;
+  Scene s = load_scene("cornell-sphere", {"render.width=40", "render.height=24", "render.max_depth=3"});
+  auto backend = make_optix_backend(s);
+  auto& optix = dynamic_cast<OptixBackend&>(*backend);
+  auto host = make_host_image(*backend), device = make_device_image(optix);
+  ASSERT_TRUE(device->writes_device_pixels());
+  for (auto* image : {host.get(), device.get()}) {
+    image->restart(frame_spec(s));
+    for (uint32_t spp : {1u, 1u, 2u}) image->add_samples(spp);
+  }
+  ASSERT_EQ(device->samples(), 4u);
+  EXPECT_EQ(device->mean(), host->mean());
+
+  const size_t bytes = 40 * 24 * 4;
+  std::vector<unsigned char> want(bytes, 7), got(bytes, 0);
+  host->tone_map(DisplayPixels{want.data(), 40 * 4, 40, 24, false}, 13, 29, 0.5f);
+  unsigned char* d = nullptr;
+  ASSERT_EQ(cudaMalloc(reinterpret_cast<void**>(&d), bytes), cudaSuccess);
+  ASSERT_EQ(cudaMemset(d, 7, bytes), cudaSuccess);
+  device->tone_map(DisplayPixels{d, 40 * 4, 40, 24, true}, 13, 29, 0.5f);
+  ASSERT_EQ(cudaMemcpy(got.data(), d, bytes, cudaMemcpyDeviceToHost), cudaSuccess);
+  cudaFree(d);
+  EXPECT_EQ(got, want) << "the device's display bytes differ from the host path's";
+}
+#endif
 
 }  // namespace
 }  // namespace pn::viewer

@@ -144,6 +144,8 @@ def case_xvfb(penumbra, work):
     check_not_blank("frames.png")
     if "fps as displayed" not in p.stderr or "6 frames of 160x90" not in p.stderr:
         fail("no frame-rate line on stderr:\n" + p.stderr)
+    if "display: host upload, cpu backend" not in p.stderr:
+        fail("the frame-rate line does not name the display path (host upload with the CPU backend):\n" + p.stderr)
     print("ok: --frames/--screenshot: " + [l for l in p.stderr.splitlines() if "fps" in l][0])
 
     # 2. A scripted camera move and strategy switch. Each screenshot must be
@@ -191,6 +193,10 @@ def case_xvfb(penumbra, work):
     p = run(view + ["cornell-sphere", "--frames", "2"], env=dict(env, MESA_GL_VERSION_OVERRIDE="3.0"),
             expect_ok=False, timeout=60)
     check_one_line_error(p, ["OpenGL 3.3", "penumbra render"], "no OpenGL 3.3")
+
+    # 5. --display interop where there is none (the CPU backend renders in host memory): one line, no hang.
+    p = run(view + ["cornell-sphere", "--frames", "2", "--display", "interop"], env=env, expect_ok=False, timeout=60)
+    check_one_line_error(p, ["--display interop", "penumbra render"], "--display interop without interop")
 
 
 def main():

@@ -66,6 +66,11 @@ Command add_view_command(CLI::App& app) {
   sub->add_option("--threads", a->o.threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   sub->add_option("--split", a->o.split, "Start in split screen: LEFT,RIGHT strategies, e.g. area,solid-angle");
   sub->add_flag("--equal-time", a->o.equal_time, "Split screen at equal time instead of equal samples per pixel");
+  sub->add_option("--display", a->o.display,
+                  "How the image reaches the screen: auto (CUDA-OpenGL interop with the OptiX backend where it works, "
+                  "else host upload), interop (or fail), host")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "interop", "host"}));
   sub->add_flag("--hide-panel", a->o.hide_panel, "Start with the control panel hidden (Tab shows it)");
   sub->add_option("--frames", a->o.frames, "Render this many frames, print the frame rate, and exit")
       ->check(CLI::Range(1, 100000000));

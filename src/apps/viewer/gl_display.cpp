@@ -8,6 +8,10 @@
 #include <GL/glcorearb.h>
 #include <GLFW/glfw3.h>
 
+#if PN_VIEWER_INTEROP
+#include "apps/viewer/device_image.h"
+#endif
+
 namespace pn::viewer {
 namespace {
 
@@ -32,6 +36,9 @@ namespace {
   X(PFNGLTEXIMAGE2DPROC, TexImage2D)                              \
   X(PFNGLTEXSUBIMAGE2DPROC, TexSubImage2D)                        \
   X(PFNGLBINDBUFFERPROC, BindBuffer)                              \
+  X(PFNGLGENBUFFERSPROC, GenBuffers)                              \
+  X(PFNGLDELETEBUFFERSPROC, DeleteBuffers)                        \
+  X(PFNGLBUFFERDATAPROC, BufferData)                              \
   X(PFNGLCREATESHADERPROC, CreateShader)                          \
   X(PFNGLSHADERSOURCEPROC, ShaderSource)                          \
   X(PFNGLCOMPILESHADERPROC, CompileShader)                        \
@@ -138,6 +145,9 @@ DisplayTexture::DisplayTexture() {
 }
 
 DisplayTexture::~DisplayTexture() {
+  if (mapped_) upload_mapped();
+  cuda_buffer_.reset();  // unregister before the buffer goes
+  if (pbo_) gl.DeleteBuffers(1, &pbo_);
   gl.DeleteTextures(1, &texture_);
   gl.DeleteVertexArrays(1, &vao_);
   gl.DeleteProgram(program_);
@@ -156,6 +166,76 @@ void DisplayTexture::resize(int width, int height) {
   gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  if (interop_) register_buffer();
+}
+
+bool DisplayTexture::enable_interop(std::string* why) {
+#if PN_VIEWER_INTEROP
+  if (interop_) return true;
+  interop_ = true;
+  try {
+    register_buffer();
+    return true;
+  } catch (const std::exception& e) {
+    disable_interop();
+    *why = e.what();
+    return false;
+  }
+#else
+  *why = "this penumbra was built without CUDA";
+  return false;
+#endif
+}
+
+void DisplayTexture::disable_interop() {
+  cuda_buffer_.reset();
+  if (pbo_) gl.DeleteBuffers(1, &pbo_);
+  pbo_ = 0;
+  interop_ = false;
+}
+
+void DisplayTexture::register_buffer() {
+#if PN_VIEWER_INTEROP
+  cuda_buffer_.reset();
+  if (!pbo_) gl.GenBuffers(1, &pbo_);
+  gl.BindBuffer(GL_PIXEL_UNPACK_BUFFER, pbo_);
+  // At least one pixel: registering a buffer without storage fails.
+  gl.BufferData(GL_PIXEL_UNPACK_BUFFER, GLsizeiptr(std::max(width_, 1)) * std::max(height_, 1) * 4, nullptr,
+                GL_STREAM_DRAW);
+  gl.BindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+  cuda_buffer_ = std::make_shared<CudaGlBuffer>(pbo_);
+#endif
+}
+
+DisplayPixels DisplayTexture::map_device_pixels() {
+  DisplayPixels p;
+#if PN_VIEWER_INTEROP
+  if (!interop_ || !cuda_buffer_) throw std::logic_error("map_device_pixels() without interop");
+  auto* buffer = static_cast<CudaGlBuffer*>(cuda_buffer_.get());
+  size_t bytes = 0;
+  mapped_ = buffer->map(&bytes);
+  if (bytes < size_t(width_) * height_ * 4) throw std::logic_error("the mapped pixel buffer is too small");
+  p.data = mapped_;
+  p.row_bytes = size_t(width_) * 4;
+  p.width = width_;
+  p.height = height_;
+  p.device = true;
+#endif
+  return p;
+}
+
+void DisplayTexture::upload_mapped() {
+#if PN_VIEWER_INTEROP
+  if (!mapped_) return;
+  static_cast<CudaGlBuffer*>(cuda_buffer_.get())->unmap();  // CUDA's writes are done before GL reads
+  mapped_ = nullptr;
+  gl.BindBuffer(GL_PIXEL_UNPACK_BUFFER, pbo_);
+  gl.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  gl.PixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  gl.BindTexture(GL_TEXTURE_2D, texture_);
+  gl.TexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);  // offset 0
+  gl.BindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+#endif
 }
 
 DisplayPixels DisplayTexture::host_pixels() {

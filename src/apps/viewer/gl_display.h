@@ -3,6 +3,7 @@
 // display texture that shows the rendered image scaled to the window.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -37,17 +38,34 @@ class DisplayTexture {
   // Host path: the staging buffer to tone-map into, then upload() it.
   DisplayPixels host_pixels();
   void upload();
-  // (Interop path, to come: a GL_PIXEL_UNPACK_BUFFER registered with CUDA,
-  // mapped to give device DisplayPixels, then glTexSubImage2D from offset 0 of
-  // the bound buffer. Only this class and the frame loop change.)
+
+  // Interop path (builds with CUDA, device_image.h): a GL_PIXEL_UNPACK_BUFFER of
+  // width x height x 4 bytes, registered with CUDA once per size. Returns false
+  // with the reason in one line in *why where this build or this GL context
+  // cannot (then the host path stays); resize() re-registers at each new size
+  // and throws if that fails.
+  bool enable_interop(std::string* why);
+  void disable_interop();
+  bool interop() const { return interop_; }
+  // Maps the buffer into CUDA: device DisplayPixels to tone-map into; then
+  // upload_mapped() unmaps it and fills the texture from it (glTexSubImage2D
+  // from offset 0 of the bound buffer: no trip through host memory).
+  DisplayPixels map_device_pixels();
+  void upload_mapped();
 
   // Draws the texture over the viewport of a framebuffer of this size.
   void draw(int framebuffer_width, int framebuffer_height);
 
  private:
+  void register_buffer();  // (re)allocates and registers the pixel buffer at the current size
+
   unsigned texture_ = 0, program_ = 0, vao_ = 0;
   int width_ = 0, height_ = 0;
   std::vector<unsigned char> host_;
+  bool interop_ = false;
+  unsigned pbo_ = 0;                        // GL_PIXEL_UNPACK_BUFFER
+  std::shared_ptr<void> cuda_buffer_;       // its CUDA registration (a CudaGlBuffer)
+  unsigned char* mapped_ = nullptr;
 };
 
 // The current framebuffer (what the window shows once swapped), RGB 8-bit,

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "apps/viewer/tone_map.h"
 #include "io/image.h"
 
 namespace pn::viewer {
@@ -61,13 +62,11 @@ class HostImage final : public ProgressiveImage {
     const double inv = film_.samples() ? 1.0 / double(film_.samples()) : 0.0;
     const float gain = std::exp2(exposure);
     const double* sum = film_.sum();
+    const float* t = srgb8_thresholds();
     for (int y = 0; y < h; ++y) {
       unsigned char* row = out.data + size_t(y) * out.row_bytes;
       const double* s = sum + size_t(y) * film_.width() * 3;
-      for (int x = x_begin; x < x_end; ++x) {
-        for (int c = 0; c < 3; ++c) row[4 * x + c] = srgb8_fast(float(s[3 * x + c] * inv) * gain);
-        row[4 * x + 3] = 255;
-      }
+      for (int x = x_begin; x < x_end; ++x) tone_map_pixel(s + 3 * x, inv, gain, t, row + 4 * x);  // tone_map.h
     }
   }
 
@@ -81,10 +80,38 @@ class HostImage final : public ProgressiveImage {
 
 }  // namespace
 
-unsigned char srgb8_fast(float v) {
-  if (!(v > 0.f)) return 0;  // also NaN, like to_srgb8
-  const auto& t = thresholds();
-  return (unsigned char)(std::upper_bound(t.begin(), t.end(), v) - t.begin());
+unsigned char srgb8_fast(float v) { return srgb8_by_thresholds(v, thresholds().data()); }
+
+const float* srgb8_thresholds() { return thresholds().data(); }
+
+const char* display_path_name(DisplayPath path) {
+  return path == DisplayPath::Interop ? "CUDA-OpenGL interop" : "host upload";
+}
+
+DisplayChoice choose_display_path(const std::string& mode, const std::string& backend, bool interop_built,
+                                  const std::function<std::string()>& try_interop) {
+  const std::string hint = "; use --display host, or `penumbra render` to render to a file";
+  DisplayChoice c;
+  if (mode == "host") {
+    c.note = "display: host upload (--display host): the image is copied to host memory and uploaded every frame";
+    return c;
+  }
+  if (mode != "auto" && mode != "interop") throw std::invalid_argument("--display must be auto, interop or host");
+  std::string why;
+  if (backend != "optix") why = "the " + backend + " backend renders in host memory";
+  else if (!interop_built) why = "this penumbra was built without CUDA (no OptiX backend)";
+  else why = try_interop();
+  if (why.empty()) {
+    c.path = DisplayPath::Interop;
+    c.note = "display: CUDA-OpenGL interop: the image stays on the GPU (tone-mapped by CUDA into a GL pixel buffer)";
+    return c;
+  }
+  if (mode == "interop") throw std::runtime_error("--display interop: not available: " + why + hint);
+  c.note = backend == "optix" ? "display: CUDA-OpenGL interop unavailable (" + why +
+                                    "): falling back to host upload (the GPU's image is copied through host memory "
+                                    "every frame)"
+                              : "display: host upload (" + why + ")";
+  return c;
 }
 
 std::unique_ptr<ProgressiveImage> make_host_image(Backend& backend) { return std::make_unique<HostImage>(backend); }

@@ -9,21 +9,23 @@
 // same content). Where the pixels live is the only difference between the two
 // display paths:
 //
-//  - host (every backend, the only one built today): the backend accumulates
-//    into a host Film; tone_map() writes host memory (DisplayPixels::device ==
-//    false) and the viewer uploads it with glTexSubImage2D;
-//  - CUDA-OpenGL interop (to come, OptiX): the accumulation stays on the GPU; the
-//    viewer maps a GL pixel-unpack buffer into CUDA (cudaGraphicsGLRegisterBuffer
-//    once, cudaGraphicsMapResources per frame) and passes its device pointer
-//    with device == true; a CUDA kernel writes the pixels and the texture is
-//    filled from the buffer without a trip through host memory. Such an image
-//    answers writes_device_pixels() == true. No Backend change is needed for the
-//    host path; the interop path will need a device-side accumulation handle
-//    from the OptiX backend (see docs/viewer.md, "GPU path").
+//  - host (the CPU backend, and the OptiX backend where interop fails): the
+//    backend accumulates into a host Film; tone_map() writes host memory
+//    (DisplayPixels::device == false) and the viewer uploads it with
+//    glTexSubImage2D;
+//  - CUDA-OpenGL interop (the OptiX backend, device_image.h): the accumulation
+//    stays on the GPU; the viewer maps a GL pixel-unpack buffer into CUDA
+//    (cudaGraphicsGLRegisterBuffer once per size, cudaGraphicsMapResources per
+//    frame) and passes its device pointer with device == true; a CUDA kernel
+//    writes the pixels and the texture is filled from the buffer without a trip
+//    through host memory. Such an image answers writes_device_pixels() == true.
+//    Both paths tone-map each pixel with the same function (tone_map.h).
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "render/backend.h"
@@ -60,6 +62,22 @@ class ProgressiveImage {
   virtual std::vector<float> mean() const = 0;
 };
 
+// How the image reaches the screen, chosen once the window is open.
+enum class DisplayPath { HostUpload, Interop };
+struct DisplayChoice {
+  DisplayPath path = DisplayPath::HostUpload;
+  std::string note;  // one line for stderr and the panel: the path, and why
+};
+// `mode` is --display: "auto" (interop with the OptiX backend where it works,
+// else host upload with a note saying why), "interop" (or a one-line error
+// with the hint to use `render`) or "host". `try_interop` is called only when
+// interop is worth trying (this build has it and the backend is "optix"): it
+// returns "" once the display buffer is registered with CUDA, else the reason.
+DisplayChoice choose_display_path(const std::string& mode, const std::string& backend, bool interop_built,
+                                  const std::function<std::string()>& try_interop);
+// "CUDA-OpenGL interop" or "host upload".
+const char* display_path_name(DisplayPath path);
+
 // The host path: any Backend renders into a host Film, tone-mapped on the CPU.
 // `backend` must outlive the image.
 std::unique_ptr<ProgressiveImage> make_host_image(Backend& backend);
@@ -67,5 +85,9 @@ std::unique_ptr<ProgressiveImage> make_host_image(Backend& backend);
 // Linear -> sRGB 8-bit, identical to io/image.h's to_srgb8 (which writes PNGs)
 // but by a binary search in a 255-entry threshold table instead of a pow().
 unsigned char srgb8_fast(float linear);
+// That table: entry k - 1 is the smallest float v with to_srgb8(v) >= k, so
+// to_srgb8(v) is the number of entries <= v (tone_map.h). 255 floats, host
+// memory; the interop path copies it to the device.
+const float* srgb8_thresholds();
 
 }  // namespace pn::viewer

@@ -16,6 +16,17 @@ target_link_libraries(penumbra_viewer_core PUBLIC penumbra_lib PRIVATE penumbra_
 target_sources(penumbra PRIVATE src/apps/viewer/cmd_view.cpp)
 target_link_libraries(penumbra PRIVATE penumbra_viewer_core)
 
+# The interop path's device images and kernels (device_image.h): with CUDA, that
+# is where the OptiX backend is built. Needs no GL library (the CUDA runtime
+# registers GL buffers through the driver); unit-tested where a GPU is present.
+if(PENUMBRA_HAVE_OPTIX)
+  add_library(penumbra_viewer_cuda STATIC
+    src/apps/viewer/device_image.cpp
+    src/apps/viewer/device_image_kernels.cu)
+  target_link_libraries(penumbra_viewer_cuda PUBLIC penumbra_viewer_core CUDA::cudart_static PRIVATE penumbra_warnings)
+  set_target_properties(penumbra_viewer_cuda PROPERTIES CUDA_RUNTIME_LIBRARY Static)
+endif()
+
 set(PENUMBRA_HAVE_VIEWER OFF)
 set(_pn_viewer_why "")
 if(NOT PENUMBRA_VIEWER)
@@ -82,6 +93,14 @@ if(PENUMBRA_HAVE_VIEWER)
     PRIVATE penumbra_warnings ${IMGUI_LIBRARY} glfw ${STB_LIBRARY} ${CMAKE_DL_LIBS})
   target_link_libraries(penumbra PRIVATE penumbra_viewer)
   set_property(SOURCE src/apps/viewer/cmd_view.cpp APPEND PROPERTY COMPILE_DEFINITIONS PENUMBRA_HAVE_VIEWER=1)
+  # The CUDA-OpenGL interop display path, with the OptiX backend (CUDA found).
+  if(TARGET penumbra_viewer_cuda)
+    target_link_libraries(penumbra_viewer PRIVATE penumbra_viewer_cuda)
+    target_compile_definitions(penumbra_viewer PRIVATE PN_VIEWER_INTEROP=1)
+    set(_pn_imgui_how "${_pn_imgui_how}; display: CUDA-OpenGL interop with OptiX, else host upload")
+  else()
+    set(_pn_imgui_how "${_pn_imgui_how}; display: host upload (no CUDA: no interop)")
+  endif()
   file(STRINGS ${IMGUI_INCLUDE_DIR}/imgui.h _pn_imgui_version REGEX "^#define IMGUI_VERSION +\"")
   string(REGEX REPLACE ".*\"(.*)\".*" "\\1" _pn_imgui_version "${_pn_imgui_version}")
   message(STATUS "penumbra: viewer: built (GLFW ${glfw3_VERSION}, Dear ImGui ${_pn_imgui_version}, ${_pn_imgui_how})")

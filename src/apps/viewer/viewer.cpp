@@ -35,6 +35,14 @@
 #include "render/backend.h"
 #include "scene/scene.h"
 
+#if PN_VIEWER_INTEROP
+#include "apps/viewer/device_image.h"
+#include "backends/optix/optix_backend.h"
+constexpr bool kInteropBuilt = true;
+#else
+constexpr bool kInteropBuilt = false;
+#endif
+
 namespace pn::viewer {
 namespace {
 
@@ -118,6 +126,8 @@ class Viewer {
   // Setup.
   void load(const std::vector<std::string>& extra_overrides);
   void open_window();
+  void choose_display();
+  std::unique_ptr<ProgressiveImage> make_image();
   // Per frame.
   void handle_input(double dt_seconds);
   void draw_panel();
@@ -154,6 +164,7 @@ class Viewer {
   std::unique_ptr<DisplayTexture> display_;
   std::string gl_info_;
   std::string backend_note_;
+  DisplayChoice display_path_;  // host upload or CUDA-OpenGL interop (progressive.h)
 
   // What the user controls.
   CameraControl camera_;
@@ -198,6 +209,9 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   if (!opt_.camera_path.empty()) path_ = load_camera_path(opt_.camera_path);
   scene_name_ = find_builtin(opt_.scene) ? opt_.scene : std::filesystem::path(opt_.scene).stem().string();
   load({});
+  // --display interop that cannot be (the CPU backend, a build without CUDA): one line, before any window.
+  if (opt_.display == "interop" && (backend_->name() != "optix" || !kInteropBuilt))
+    choose_display_path(opt_.display, backend_->name(), kInteropBuilt, [] { return std::string(); });  // throws
   light_initial_ = light_applied_ = light_ = LightEdit::of(*scene_);
   camera_ = CameraControl(scene_->camera);
   strategy_ = scene_->render.strategy;
@@ -293,8 +307,28 @@ void Viewer::open_window() {
     scale_ = float(std::min(1.0, std::sqrt(640.0 * 360.0 / (double(std::max(fw, 1)) * std::max(fh, 1)))));
   }
   std::fprintf(stderr, "%s\n", backend_note_.c_str());
-  std::fprintf(stderr, "view: %s, window %dx%d, %s; display: texture upload from host memory\n",
-               scene_->source.c_str(), fw, fh, gl_info_.c_str());
+  std::fprintf(stderr, "view: %s, window %dx%d, %s\n", scene_->source.c_str(), fw, fh, gl_info_.c_str());
+  choose_display();
+}
+
+// Interop where it works (the OptiX backend, its GL context on the NVIDIA GPU);
+// else the host path, said in one line (stderr and the panel).
+void Viewer::choose_display() {
+  display_path_ = choose_display_path(opt_.display, backend_->name(), kInteropBuilt, [this] {
+    std::string why;
+    if (display_->enable_interop(&why)) return std::string();
+    return why + "; the OpenGL context runs on " + gl_renderer_string() + ", and interop needs it on the NVIDIA GPU";
+  });
+  if (display_path_.path != DisplayPath::Interop) display_->disable_interop();
+  std::fprintf(stderr, "view: %s\n", display_path_.note.c_str());
+}
+
+std::unique_ptr<ProgressiveImage> Viewer::make_image() {
+#if PN_VIEWER_INTEROP
+  if (display_path_.path == DisplayPath::Interop)
+    if (auto* optix = dynamic_cast<OptixBackend*>(backend_.get())) return make_device_image(*optix);
+#endif
+  return make_host_image(*backend_);
 }
 
 Viewer::~Viewer() {
@@ -343,7 +377,12 @@ void Viewer::sync() {
   if (started_ && want == applied_) return;
   if (want.scene_overrides != applied_.scene_overrides) {
     try {
+      // A light change rebuilds the scene and the backend (for OptiX: pipeline,
+      // acceleration structures): see docs/viewer.md, "Light edits".
+      const auto t0 = Clock::now();
       load(want.scene_overrides);
+      std::fprintf(stderr, "view: light changed: scene and %s backend rebuilt in %.0f ms\n", backend_->name().c_str(),
+                   ms_since(t0));
       light_applied_ = light_;
     } catch (const std::exception& e) {  // e.g. a light moved into a wall's plane: keep the last good scene
       status_ = e.what();
@@ -363,11 +402,31 @@ void Viewer::restart(const ImageSettings& s) {
   const CameraDesc& c = s.camera;
   base.camera = Camera::look_at(c.eye, c.target, c.up, c.fov, s.width, s.height);
   base.integrator.max_depth = s.max_depth;
-  display_->resize(s.width, s.height);
+  try {
+    display_->resize(s.width, s.height);
+  } catch (const std::exception& e) {  // registering the new size's pixel buffer with CUDA failed
+    if (!display_->interop() || opt_.display == "interop") throw;
+    display_->disable_interop();
+    display_->resize(s.width, s.height);
+    display_path_ = {DisplayPath::HostUpload, std::string("display: CUDA-OpenGL interop failed at ") +
+                                                  std::to_string(s.width) + "x" + std::to_string(s.height) + " (" +
+                                                  e.what() + "): falling back to host upload"};
+    std::fprintf(stderr, "view: %s\n", display_path_.note.c_str());
+  }
 
+  // The images of the last restart are reused (same backend: load() clears
+  // them): a device image keeps its GPU buffers while the camera moves.
+  std::vector<std::unique_ptr<ProgressiveImage>> spare;
+  for (Side& old : sides_) spare.push_back(std::move(old.image));
+  const bool device = display_path_.path == DisplayPath::Interop;
   auto make_side = [&](Strategy strategy, uint32_t seed) {
     Side side;
-    side.image = make_host_image(*backend_);
+    if (!spare.empty() && spare.front() && spare.front()->writes_device_pixels() == device) {
+      side.image = std::move(spare.front());
+      spare.erase(spare.begin());
+    } else {
+      side.image = make_image();
+    }
     side.strategy = strategy;
     FrameSpec f = base;
     f.integrator.strategy = strategy;
@@ -588,7 +647,9 @@ void Viewer::draw_panel() {
   }
   ImGui::Text("%s", scene_->source.c_str());
   ImGui::TextWrapped("%s: %s", backend_->name().c_str(), backend_->device_name().c_str());
-  ImGui::Text("image %dx%d", applied_.width, applied_.height);
+  ImGui::Text("image %dx%d, display: %s", applied_.width, applied_.height, display_path_name(display_path_.path));
+  if (display_path_.path != DisplayPath::Interop && backend_->name() == "optix")
+    ImGui::TextWrapped("%s", display_path_.note.c_str());  // why not interop
 
   // Timing: ms/frame and fps as displayed, with a rolling graph.
   double avg = recent_ms_.empty() ? 0.0
@@ -783,11 +844,14 @@ int Viewer::run() {
     }
     const double render_ms = last ? 0.0 : render_samples();
     const auto td = Clock::now();
-    DisplayPixels px = display_->host_pixels();
+    // Interop: CUDA writes the mapped GL pixel buffer; host: the staging buffer, uploaded.
+    const bool device = sides_[0].image->writes_device_pixels();
+    DisplayPixels px = device ? display_->map_device_pixels() : display_->host_pixels();
     const int d = divider_column();
     sides_[0].image->tone_map(px, 0, d, exposure_);
     if (sides_.size() > 1) sides_[1].image->tone_map(px, d, applied_.width, exposure_);
-    display_->upload();
+    if (device) display_->upload_mapped();
+    else display_->upload();
     const double display_ms = ms_since(td);
 
     display_->draw(fw, fh);
@@ -829,9 +893,10 @@ int Viewer::run() {
       spp += (spp.empty() ? "" : " | ") + std::string(strategy_name(s.strategy)) + " " + std::to_string(s.image->samples()) + " spp";
     std::fprintf(stderr,
                  "view: %zu frames of %dx%d (%s): %.2f ms/frame, %.1f fps as displayed (median %.2f ms; per frame: "
-                 "render %.2f ms, tone-map + upload %.2f ms, UI + present %.2f ms)\n",
+                 "render %.2f ms, tone-map + upload %.2f ms, UI + present %.2f ms; display: %s, %s backend)\n",
                  n, applied_.width, applied_.height, spp.c_str(), total / n, 1000.0 * n / total, sorted[n / 2],
-                 render, display, total / n - render - display);
+                 render, display, total / n - render - display, display_path_name(display_path_.path),
+                 backend_->name().c_str());
   }
   return 0;
 }

@@ -21,6 +21,7 @@ struct ViewerOptions {
   std::string split;                // "LEFT,RIGHT": start in split-screen mode
   bool equal_time = false;
   bool hide_panel = false;
+  std::string display = "auto";     // auto, interop, host: how the image reaches the screen (progressive.h)
 };
 
 // Opens the window and runs until it is closed or the automation ends.
