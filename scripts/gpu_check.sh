@@ -13,7 +13,8 @@
 #      solid-angle, rendered by both backends with independent seeds (CPU seed
 #      0, GPU seed 1), each pair compared by `penumbra compare` (per-pixel
 #      differences within the combined standard errors; mean relative
-#      difference under 1%); plus GPU renders with the CPU's own seed of the
+#      difference under 1%, or under 4 standard errors of the image mean where
+#      that is larger: glossy's sun glints make its mean noisier); plus GPU renders with the CPU's own seed of the
 #      first scene and of the real-scene checks (GPU_CHECK_REAL_SCENES, default
 #      "glossy sponza": textures, environment, GGX, alpha masks). A scene of that
 #      list that `penumbra scenes` does not list is skipped with a note;
@@ -22,7 +23,9 @@
 # Prints PASS/FAIL per step and a summary; exits 0 only if everything passed.
 #
 # Environment: GPU_CHECK_OUT (output folder, default BUILD_DIR/gpu_check),
-# GPU_CHECK_WIDTH/HEIGHT/SPP (default 128x72, 256 spp), GPU_CHECK_REAL_SCENES,
+# GPU_CHECK_WIDTH/HEIGHT/SPP (default 128x72, 1024 spp: at 256 spp the image
+# mean of cornell-near under area sampling has a 0.6% standard error, too close
+# to the 1% bound on the mean difference), GPU_CHECK_REAL_SCENES,
 # GPU_CHECK_MEMCHECK_SCENES (default cornell-sphere and the real scenes),
 # OptiX_ROOT, PENUMBRA_SCENES (where sponza/ and models/ are: scene/scene.h).
 set -uo pipefail
@@ -31,7 +34,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:-}
 width=${GPU_CHECK_WIDTH:-128}
 height=${GPU_CHECK_HEIGHT:-72}
-spp=${GPU_CHECK_SPP:-256}
+spp=${GPU_CHECK_SPP:-1024}
 real_scenes=${GPU_CHECK_REAL_SCENES:-glossy sponza}
 
 declare -a names=() verdicts=()

@@ -268,3 +268,23 @@ TEST(Scene, FuzzedFilesNeverCrash) {
 
 }  // namespace
 }  // namespace pn
+
+namespace pn {
+namespace {
+
+// The feature mask picks the GPU's raygen level: it must cover what a scene
+// uses, and stay empty for the thesis's Lambertian Cornell boxes.
+TEST(SceneFeatures, CoverWhatTheSceneUses) {
+  for (const char* name : {"cornell-sphere", "cornell-near", "occlusion"})
+    EXPECT_EQ(load_scene(name).features(), 0u) << name;
+  const uint32_t glossy = load_scene("glossy").features();
+  EXPECT_TRUE(glossy & kFeatureSpecular);
+  EXPECT_TRUE(glossy & kFeatureEnvironment);
+  std::string source;
+  nlohmann::json j = load_scene_json("cornell-sphere", {}, &source);
+  j["materials"]["white"] = {{"base_color", {0.5, 0.5, 0.5}}, {"metallic", 0.0}, {"roughness", 0.5}};
+  EXPECT_EQ(parse_scene(j, "test", ".").features(), uint32_t(kFeatureSpecular));
+}
+
+}  // namespace
+}  // namespace pn

@@ -40,14 +40,15 @@ struct IntegratorSettings {
 
 // Radiance arriving at x from the lights along one strategy-sampled direction,
 // weighted by f * cos / pdf. Shared by the path loop and the direct-lighting tests.
-template <class Tracer>
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, Strategy strategy,
                            const Bsdf& bsdf, Vec3 p, Vec3 wo, float u_select, Vec2 u) {
+  constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
   if (scene.num_lights == 0) return Vec3(0.f);
   float select_pdf;
   const Light& light = scene.lights[select_light(scene, u_select, &select_pdf)];
   LightSample ls;
-  if (light.type == LightType::Environment) {
+  if ((kFeatures & kFeatureEnvironment) && light.type == LightType::Environment) {
     // Not a subject of the comparison: every strategy samples the environment's image.
     EnvironmentSample es = environment_sample(scene.environment, u);
     ls.wi = es.wi;
@@ -58,7 +59,7 @@ PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, Strateg
     ls = sample_light(strategy, light, p, u);
   }
   if (!(ls.pdf > 0.f)) return Vec3(0.f);
-  Vec3 f = bsdf_eval(bsdf, wo, ls.wi);
+  Vec3 f = bsdf_eval<kSpecular>(bsdf, wo, ls.wi);
   if (is_black(f)) return Vec3(0.f);
   const float cos_theta = dot(bsdf.frame.n, ls.wi);
   // The shadow ray leaves on the side of the geometric surface wi points to
@@ -73,19 +74,22 @@ PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, Strateg
     if (tracer.occluded(Ray(o, to_light / dist), dist * (1.f - kShadowEpsilon))) return Vec3(0.f);
   }
   Vec3 L = ls.L;
-  if (light.type == LightType::Triangle && light.emission_tex >= 0)
+  if ((kFeatures & kFeatureTextures) && light.type == LightType::Triangle && light.emission_tex >= 0)
     L = L * texture_lookup(scene.textures[light.emission_tex],
                            lerp_uv(light.uv0, light.uv1, light.uv2, ls.b.x, ls.b.y)).rgb;
   return f * L * (cos_theta / (ls.pdf * select_pdf));
 }
 
 // Radiance of a ray that leaves the scene.
+template <uint32_t kFeatures = kAllFeatures>
 PN_FN Vec3 escaped_radiance(const SceneView& scene, Vec3 d) {
-  return scene.environment.present() ? environment_radiance(scene.environment, d) : scene.background;
+  if ((kFeatures & kFeatureEnvironment) && scene.environment.present()) return environment_radiance(scene.environment, d);
+  return scene.background;
 }
 
-// One path sample along `ray`; returns its radiance estimate.
-template <class Tracer>
+// One path sample along `ray`; returns its radiance estimate. kFeatures must
+// cover the scene's features (SceneFeature); fewer compile to less code.
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s,
                       Ray ray, Rng& rng) {
   const bool nee = strategy_uses_nee(s.strategy);
@@ -93,29 +97,29 @@ PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const Integr
   for (int depth = 0;; ++depth) {
     HitRecord rec;
     if (!tracer.intersect(ray, kInf, &rec)) {
-      if (depth == 0 || !nee || scene.environment_light < 0) L += beta * escaped_radiance(scene, ray.d);
+      if (depth == 0 || !nee || scene.environment_light < 0) L += beta * escaped_radiance<kFeatures>(scene, ray.d);
       break;
     }
-    const SurfaceHit hit = resolve_hit(scene, ray, rec);
+    const SurfaceHit hit = resolve_hit<kFeatures>(scene, ray, rec);
     const bool front = dot(hit.n, ray.d) < 0.f;
     // Emission, unless NEE already accounted for this light at the previous vertex.
-    if (hit.light >= 0 && front && (depth == 0 || !nee)) L += beta * surface_emission(scene, hit);
+    if (hit.light >= 0 && front && (depth == 0 || !nee)) L += beta * surface_emission<kFeatures>(scene, hit);
     if (depth == s.max_depth) break;
 
     const Vec3 wo = -ray.d;
-    const Bsdf bsdf = surface_bsdf(scene, hit, wo);
+    const Bsdf bsdf = surface_bsdf<kFeatures>(scene, hit, wo);
     if (is_black(bsdf.diffuse) && !bsdf.has_specular) break;
 
     // Next-event estimation.
     if (nee) {
       float u_select = rng.uniform();
       Vec2 u_light = rng.uniform2();
-      L += beta * estimate_direct(tracer, scene, s.strategy, bsdf, hit.p, wo, u_select, u_light);
+      L += beta * estimate_direct<kFeatures>(tracer, scene, s.strategy, bsdf, hit.p, wo, u_select, u_light);
     }
 
     // Continue the path by sampling the BSDF.
     float u_lobe = rng.uniform();
-    BsdfSample bs = bsdf_sample(bsdf, wo, u_lobe, rng.uniform2());
+    BsdfSample bs = bsdf_sample<(kFeatures & kFeatureSpecular) != 0>(bsdf, wo, u_lobe, rng.uniform2());
     if (!(bs.pdf > 0.f)) break;
     beta *= bs.weight;
 
@@ -132,14 +136,14 @@ PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const Integr
 
 // One camera sample of pixel (px, py): its own RNG stream, a uniformly jittered
 // position in the pixel (box filter), one path.
-template <class Tracer>
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 render_sample(const Tracer& tracer, const SceneView& scene, const Camera& camera,
                          const IntegratorSettings& s, int px, int py, uint32_t sample_index,
                          uint32_t seed) {
   Rng rng(uint32_t(py) * uint32_t(camera.width) + uint32_t(px), sample_index, seed);
   Vec2 j = rng.uniform2();
   Ray ray = camera.generate_ray(float(px) + j.x, float(py) + j.y);
-  return trace_path(tracer, scene, s, ray, rng);
+  return trace_path<kFeatures>(tracer, scene, s, ray, rng);
 }
 
 }  // namespace pn

@@ -162,8 +162,14 @@ PN_FN Vec3 bsdf_fresnel(const Bsdf& b, float cos_theta) {
 }
 
 // The diffuse term's loss to the coat, (1 - F_d(cos)); 1 without a coat.
+//
+// The functions below take kSpecular = false where the caller knows that no
+// material of the scene has a specular lobe (a coat or a metal): the GGX code
+// then compiles away, which keeps the GPU's megakernel small (see
+// core/scene_view.h, SceneFeature).
+template <bool kSpecular = true>
 PN_FN float bsdf_coat_transmission(const Bsdf& b, float cos_theta) {
-  return b.coat_weight > 0.f ? 1.f - schlick_fresnel(b.f0_dielectric, cos_theta) : 1.f;
+  return kSpecular && b.coat_weight > 0.f ? 1.f - schlick_fresnel(b.f0_dielectric, cos_theta) : 1.f;
 }
 
 // The Lambertian BSDF of albedo a around normal n (tests, simple scenes).
@@ -179,12 +185,13 @@ PN_FN float bsdf_specular_probability(const Bsdf& b, float cos_o) {
 }
 
 // f(wo, wi) without the cosine; world-space unit directions pointing away.
+template <bool kSpecular = true>
 PN_FN Vec3 bsdf_eval(const Bsdf& b, Vec3 wo, Vec3 wi) {
   if (dot(wi, b.ng) <= 0.f || dot(wo, b.ng) <= 0.f) return Vec3(0.f);
   Vec3 o = b.frame.to_local(wo), i = b.frame.to_local(wi);
   if (o.z <= 0.f || i.z <= 0.f) return Vec3(0.f);
-  Vec3 f = b.diffuse * (kInvPi * bsdf_coat_transmission(b, o.z) * bsdf_coat_transmission(b, i.z));
-  if (b.has_specular) {
+  Vec3 f = b.diffuse * (kInvPi * bsdf_coat_transmission<kSpecular>(b, o.z) * bsdf_coat_transmission<kSpecular>(b, i.z));
+  if (kSpecular && b.has_specular) {
     Vec3 h = normalize(o + i);
     float g = ggx_g2(o, i, b.alpha);
     f += bsdf_fresnel(b, dot(o, h)) * (ggx_d(h, b.alpha) * g / (4.f * o.z * i.z));
@@ -207,11 +214,12 @@ PN_FN float bsdf_pdf(const Bsdf& b, Vec3 wo, Vec3 wi) {
 }
 
 // Samples wi; u_lobe picks the lobe, u the direction within it.
+template <bool kSpecular = true>
 PN_FN BsdfSample bsdf_sample(const Bsdf& b, Vec3 wo, float u_lobe, Vec2 u) {
   BsdfSample s;
   Vec3 o = b.frame.to_local(wo);
   if (o.z <= 0.f || dot(wo, b.ng) <= 0.f) return s;
-  float ps = bsdf_specular_probability(b, o.z);
+  const float ps = kSpecular ? bsdf_specular_probability(b, o.z) : 0.f;
   Vec3 i;
   if (u_lobe < ps) {
     Vec3 h = ggx_sample_visible_normal(o, b.alpha, u);
@@ -225,7 +233,7 @@ PN_FN BsdfSample bsdf_sample(const Bsdf& b, Vec3 wo, float u_lobe, Vec2 u) {
     // Pure diffuse: f cos / pdf reduces to the weighted albedo exactly.
     if (dot(s.wi, b.ng) <= 0.f) return BsdfSample();
     s.pdf = cosine_hemisphere_pdf(i.z);
-    s.weight = b.diffuse * (bsdf_coat_transmission(b, o.z) * bsdf_coat_transmission(b, i.z));
+    s.weight = b.diffuse * (bsdf_coat_transmission<kSpecular>(b, o.z) * bsdf_coat_transmission<kSpecular>(b, i.z));
     return s;
   }
   s.pdf = bsdf_pdf(b, wo, s.wi);

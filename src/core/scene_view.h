@@ -83,6 +83,22 @@ struct SceneView {
   Vec3 background;  // radiance of rays that escape when there is no environment map
 };
 
+// --- Features ------------------------------------------------------------------
+
+// What a scene uses beyond Lambertian, untextured, flat-shaded surfaces lit by
+// lights with a surface. The shading code below is templated on a mask of these:
+// with a bit off, its code compiles away. The GPU backend builds one raygen
+// program per strategy and per feature level and runs the smallest that covers
+// the scene, because its megakernel is bound by instruction fetch and code size
+// (src/backends/optix/NOTES.md); the CPU backend always runs kAllFeatures.
+enum SceneFeature : uint32_t {
+  kFeatureShading = 1u << 0,      // per-vertex normals or texture coordinates
+  kFeatureTextures = 1u << 1,     // texture lookups: material textures, normal maps, emission textures
+  kFeatureSpecular = 1u << 2,     // a GGX lobe: a material with metallic > 0 or specular > 0
+  kFeatureEnvironment = 1u << 3,  // an environment map
+};
+constexpr uint32_t kAllFeatures = kFeatureShading | kFeatureTextures | kFeatureSpecular | kFeatureEnvironment;
+
 // --- Hits ----------------------------------------------------------------------
 
 PN_FN Vec2 lerp_uv(Vec2 a, Vec2 b, Vec2 c, float b1, float b2) {
@@ -96,14 +112,16 @@ PN_FN uint32_t triangle_material(const InstanceView& inst, uint32_t tri) {
 
 // A triangle hit of an instance: interpolated point, geometric normal from the
 // winding, interpolated shading normal, uv and tangent, moved to world space.
+template <uint32_t kFeatures = kAllFeatures>
 PN_FN void resolve_triangle_hit(const InstanceView& inst, uint32_t tri, float b1, float b2, SurfaceHit* hit) {
+  constexpr bool kShading = (kFeatures & kFeatureShading) != 0;
   const MeshView& m = inst.mesh;
   const uint32_t i0 = m.indices[3 * tri], i1 = m.indices[3 * tri + 1], i2 = m.indices[3 * tri + 2];
   const Vec3 p0 = m.positions[i0], p1 = m.positions[i1], p2 = m.positions[i2];
   Vec3 p, n;
   triangle_hit(p0, p1, p2, b1, b2, &p, &n);
   Vec3 ns = n;
-  if (m.normals) {
+  if (kShading && m.normals) {
     const float b0 = 1.f - b1 - b2;
     Vec3 s = m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2;
     float len = length(s);
@@ -113,7 +131,7 @@ PN_FN void resolve_triangle_hit(const InstanceView& inst, uint32_t tri, float b1
   Vec2 uv;
   Vec3 dpdu(0.f);
   float sign = 1.f;
-  if (m.uvs) {
+  if (kShading && m.uvs) {
     const Vec2 t0 = m.uvs[i0], t1 = m.uvs[i1], t2 = m.uvs[i2];
     uv = lerp_uv(t0, t1, t2, b1, b2);
     const float du1 = t1.x - t0.x, dv1 = t1.y - t0.y, du2 = t2.x - t0.x, dv2 = t2.y - t0.y;
@@ -129,7 +147,7 @@ PN_FN void resolve_triangle_hit(const InstanceView& inst, uint32_t tri, float b1
   }
   hit->p = inst.to_world.point(p);
   hit->n = normalize(inst.to_object.transpose_vector(n));
-  hit->ns = normalize(inst.to_object.transpose_vector(ns));
+  hit->ns = kShading ? normalize(inst.to_object.transpose_vector(ns)) : hit->n;
   hit->dpdu = inst.to_world.vector(dpdu);
   // A mirroring transform flips cross products, hence the bitangent's sign.
   const Affine& M = inst.to_world;
@@ -143,6 +161,7 @@ PN_FN void resolve_triangle_hit(const InstanceView& inst, uint32_t tri, float b1
 }
 
 // Any hit of a backend, as a shading point.
+template <uint32_t kFeatures = kAllFeatures>
 PN_FN SurfaceHit resolve_hit(const SceneView& scene, const Ray& ray, const HitRecord& rec) {
   SurfaceHit hit;
   hit.t = rec.t;
@@ -153,7 +172,7 @@ PN_FN SurfaceHit resolve_hit(const SceneView& scene, const Ray& ray, const HitRe
     hit.material = s.material;
     hit.light = s.light;
   } else {
-    resolve_triangle_hit(scene.instances[rec.instance], rec.prim, rec.b1, rec.b2, &hit);
+    resolve_triangle_hit<kFeatures>(scene.instances[rec.instance], rec.prim, rec.b1, rec.b2, &hit);
   }
   return hit;
 }
@@ -180,18 +199,20 @@ PN_FN bool alpha_discards(const SceneView& scene, const InstanceView& inst, uint
 // normal's hemisphere), so that a path does not stop on a black band where
 // normal map and geometry disagree; leaks stay excluded by bsdf_eval's
 // geometric test.
+template <uint32_t kFeatures = kAllFeatures>
 PN_FN Bsdf surface_bsdf(const SceneView& scene, const SurfaceHit& hit, Vec3 wo) {
+  constexpr bool kTextures = (kFeatures & kFeatureTextures) != 0;
   const Material& m = scene.materials[hit.material];
   Vec3 base = m.base_color;
   float metallic = m.metallic, roughness = m.roughness;
-  if (m.base_color_tex >= 0) base = base * texture_lookup(scene.textures[m.base_color_tex], hit.uv).rgb;
-  if (m.metallic_roughness_tex >= 0) {
+  if (kTextures && m.base_color_tex >= 0) base = base * texture_lookup(scene.textures[m.base_color_tex], hit.uv).rgb;
+  if (kTextures && m.metallic_roughness_tex >= 0) {
     Vec3 mr = texture_lookup(scene.textures[m.metallic_roughness_tex], hit.uv).rgb;
     roughness *= mr.y;
     metallic *= mr.z;
   }
   Vec3 ns = hit.ns;
-  if (m.normal_tex >= 0 && length_sq(hit.dpdu) > 0.f) {
+  if (kTextures && m.normal_tex >= 0 && length_sq(hit.dpdu) > 0.f) {
     Vec3 t = hit.dpdu - ns * dot(ns, hit.dpdu);
     float len = length(t);
     if (len > 1e-12f) {
@@ -214,9 +235,10 @@ PN_FN Bsdf surface_bsdf(const SceneView& scene, const SurfaceHit& hit, Vec3 wo) 
 }
 
 // Radiance a surface emits towards the side it was hit from (front faces only).
+template <uint32_t kFeatures = kAllFeatures>
 PN_FN Vec3 surface_emission(const SceneView& scene, const SurfaceHit& hit) {
   const Light& l = scene.lights[hit.light];
-  if (l.type == LightType::Triangle && l.emission_tex >= 0)
+  if ((kFeatures & kFeatureTextures) && l.type == LightType::Triangle && l.emission_tex >= 0)
     return l.radiance * texture_lookup(scene.textures[l.emission_tex], hit.uv).rgb;
   return l.radiance;
 }

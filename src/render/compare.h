@@ -12,7 +12,7 @@
 namespace pn {
 
 struct CompareOptions {
-  double max_mean_rel_diff = 0.01;  // |sum a - sum b| / sum b
+  double max_mean_rel_diff = 0.01;  // |sum a - sum b| / sum b (or max_image_z standard errors of it, if larger)
   double max_image_z = 4.0;         // z of the difference of the image means
   double outlier_z = 5.0;           // a pixel channel with |z| above this is an outlier
   double max_outlier_fraction = 0.002;

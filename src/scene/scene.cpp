@@ -786,6 +786,21 @@ void finalize_scene(Scene& s) {
   else s.light_cdf.clear();
 }
 
+uint32_t Scene::features() const {
+  uint32_t f = 0;
+  for (const Instance& inst : instances) {
+    const TriangleMesh& m = meshes[inst.mesh];
+    if (!m.normals.empty() || !m.uvs.empty()) f |= kFeatureShading;
+  }
+  for (const Material& m : materials) {
+    if (m.base_color_tex >= 0 || m.metallic_roughness_tex >= 0 || m.normal_tex >= 0 || m.emission_tex >= 0)
+      f |= kFeatureTextures;
+    if (m.metallic > 0.f || m.specular > 0.f) f |= kFeatureSpecular;
+  }
+  if (environment.texture >= 0) f |= kFeatureEnvironment;
+  return f;
+}
+
 float Scene::bounding_radius() const {
   Vec3 lo(kInf), hi(-kInf);
   std::vector<std::pair<Vec3, Vec3>> boxes(meshes.size(), {Vec3(kInf), Vec3(-kInf)});

@@ -119,7 +119,8 @@ struct Scene {
   std::vector<std::string> warnings;  // non-fatal problems found while loading (missing textures, ...)
 
   Camera make_camera() const;
-  float bounding_radius() const;  // of everything that is not a light at infinity
+  float bounding_radius() const;
+  uint32_t features() const;  // SceneFeature bits (core/scene_view.h) the scene uses  // of everything that is not a light at infinity
   IntegratorSettings integrator() const;
   size_t triangle_count() const;
 };

@@ -83,8 +83,9 @@ __forceinline__ __device__ void set_hit_payload(float t, uint32_t instance, uint
 // One raygen program per strategy (the PN_STRATEGIES registry): with the strategy
 // a compile-time constant, the other strategies' sampling code folds away, which
 // keeps the megakernel small; instruction fetch, not arithmetic, is what stalls
-// warps most in this kernel (ncu: stall_no_inst).
-template <Strategy kStrategy>
+// warps most in this kernel (ncu: stall_no_inst). For the same reason each
+// strategy exists at three feature levels (kFeatureLevels, launch_params.h).
+template <Strategy kStrategy, uint32_t kFeatures>
 __forceinline__ __device__ void render_pixels() {
   const LaunchParams& p = P();
   IntegratorSettings settings = p.integrator;
@@ -99,7 +100,7 @@ __forceinline__ __device__ void render_pixels() {
     float3 sum = make_float3(0.f, 0.f, 0.f), sum_sq = make_float3(0.f, 0.f, 0.f);
     uint32_t nonfinite = 0;
     for (uint32_t i = 0; i < p.spp; ++i) {
-      Vec3 L = render_sample(tracer, p.scene, p.camera, settings, px, py, p.first_sample + i, p.seed);
+      Vec3 L = render_sample<kFeatures>(tracer, p.scene, p.camera, settings, px, py, p.first_sample + i, p.seed);
       if (!is_finite(L)) {  // as on the CPU: skipped, counted, reported by the host
         ++nonfinite;
         continue;
@@ -123,9 +124,11 @@ __forceinline__ __device__ void render_pixels() {
 using namespace pn;
 using namespace pn::optix;
 
-// __raygen__Area, __raygen__SolidAngle, __raygen__Bsdf, ...
+// __raygen__Area_basic, __raygen__Area_textured, __raygen__Area_full, __raygen__SolidAngle_basic, ...
 #define PN_X(e, name, fn, nee, desc) \
-  extern "C" __global__ void __raygen__##e() { render_pixels<Strategy::e>(); }
+  extern "C" __global__ void __raygen__##e##_basic() { render_pixels<Strategy::e, kFeatureLevels[0]>(); }       \
+  extern "C" __global__ void __raygen__##e##_textured() { render_pixels<Strategy::e, kFeatureLevels[1]>(); }    \
+  extern "C" __global__ void __raygen__##e##_full() { render_pixels<Strategy::e, kFeatureLevels[2]>(); }
 PN_STRATEGIES(PN_X)
 #undef PN_X
 

@@ -36,6 +36,14 @@ enum : uint32_t { kMissRadiance = 0, kMissShadow = 1, kNumMissPrograms = 2 };
 // records are the mesh hit group. The spheres' instance starts at kSbtSphere.
 enum : uint32_t { kSbtMesh = 0, kSbtSphere = 2, kNumHitRecords = 3 };
 
+// The raygen programs' feature levels (core/scene_view.h, SceneFeature): every
+// strategy is compiled once per level, and the backend runs the smallest level
+// that covers the scene, so that a Lambertian Cornell box does not pay for the
+// GGX, texture and environment code in its megakernel.
+constexpr uint32_t kNumFeatureLevels = 3;
+constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {0u, kFeatureShading | kFeatureTextures, kAllFeatures};
+constexpr const char* kFeatureLevelNames[kNumFeatureLevels] = {"basic", "textured", "full"};
+
 struct LaunchParams {
   OptixTraversableHandle handle = 0;  // the IAS; 0 for an empty scene (every ray misses)
   SceneView scene;                    // every array in device memory, textures as texture objects

@@ -398,6 +398,7 @@ class OptixBackendImpl final : public OptixBackend {
             {"driver", driver_},
             {"cuda_driver_api", std::to_string(drv / 1000) + "." + std::to_string((drv % 1000) / 10)},
             {"optix", optix_version_string(OPTIX_VERSION) + " (ABI " + std::to_string(OPTIX_ABI_VERSION) + ")"},
+            {"kernel", optix::kFeatureLevelNames[feature_level_]},
             {"spheres", sphere_mode()}};
   }
 
@@ -616,19 +617,28 @@ class OptixBackendImpl final : public OptixBackend {
       log[0] = 0;
       PN_OPTIX_LOG(optixProgramGroupCreate(context_, &d, 1, &pgo, log, &log_size, g), log);
     };
-    // One raygen program per strategy, named after the registry's enum.
+    // One raygen program per strategy, named after the registry's enum, at the
+    // smallest feature level that covers the scene.
+    const uint32_t features = scene_.features();
+    feature_level_ = optix::kNumFeatureLevels - 1;
+    for (uint32_t l = 0; l < optix::kNumFeatureLevels; ++l)
+      if ((features & ~optix::kFeatureLevels[l]) == 0) {
+        feature_level_ = l;
+        break;
+      }
     OptixProgramGroupDesc d = {};
     static const char* const raygen_names[] = {
-#define PN_X(e, name, fn, nee, desc) "__raygen__" #e,
+#define PN_X(e, name, fn, nee, desc) "__raygen__" #e "_",
         PN_STRATEGIES(PN_X)
 #undef PN_X
     };
     raygen_.assign(kNumStrategies, nullptr);
     for (int i = 0; i < kNumStrategies; ++i) {
+      const std::string entry = std::string(raygen_names[i]) + optix::kFeatureLevelNames[feature_level_];
       d = {};
       d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
       d.raygen.module = module_;
-      d.raygen.entryFunctionName = raygen_names[i];
+      d.raygen.entryFunctionName = entry.c_str();
       make_group(d, &raygen_[i]);
     }
 
@@ -1054,6 +1064,7 @@ class OptixBackendImpl final : public OptixBackend {
   const Scene& scene_;
   SceneSize size_;
   SphereMode sphere_mode_ = SphereMode::Custom;
+  uint32_t feature_level_ = optix::kNumFeatureLevels - 1;  // index into kFeatureLevels
   int spp_per_launch_ = 0;
   int pixels_per_thread_ = 1;
   bool launch_2d_ = kDefaultLaunch2d;
