@@ -6,12 +6,13 @@ environment convention (core/environment.h): the top row looks straight up,
 the centre column looks down -z, u grows with the azimuth atan2(x, -z). A blue
 gradient from the zenith to a pale horizon, a dim brownish ground, and a sun disc
 (angular radius 1.5 degrees, 35 degrees above the horizon) with a soft glow
-around it. Scanlines are written uncompressed (flat RGBE), which every reader,
-stb_image included, accepts. numpy only.
+around it. Scanlines are run-length encoded (Radiance's "new" RLE, channel by
+channel), which keeps a 2048x1024 map of smooth rows small. numpy only.
 
-    python3 scripts/make_sky.py [--out data/sky.hdr] [--width 512]
+    python3 scripts/make_sky.py [--out data/sky.hdr] [--width 2048]
 """
 import argparse
+import sys
 
 import numpy as np
 
@@ -53,18 +54,52 @@ def to_rgbe(img):
     return rgbe
 
 
+def rle_channel(row):
+    """One channel of one scanline: runs (count > 128) and literals (count <= 128)."""
+    out = bytearray()
+    i, n = 0, len(row)
+    while i < n:
+        j = i
+        while j < n and j - i < 127 and row[j] == row[i]:
+            j += 1
+        if j - i >= 4:  # a run
+            out += bytes([128 + (j - i), row[i]])
+            i = j
+            continue
+        # A literal up to the next run of 4 (or 128 bytes).
+        j = i
+        while j < n and j - i < 128:
+            if j + 3 < n and row[j] == row[j + 1] == row[j + 2] == row[j + 3]:
+                break
+            j += 1
+        out += bytes([j - i]) + bytes(row[i:j])
+        i = j
+    return out
+
+
+def rle_scanline(rgbe_row):
+    w = rgbe_row.shape[0]
+    out = bytearray([2, 2, w >> 8, w & 255])
+    for c in range(4):
+        out += rle_channel(rgbe_row[:, c].tolist())
+    return bytes(out)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="data/sky.hdr")
-    ap.add_argument("--width", type=int, default=512)
+    ap.add_argument("--width", type=int, default=2048)
     a = ap.parse_args()
     w, h = a.width, a.width // 2
+    if not 8 <= w <= 32767:
+        sys.exit("make_sky.py: --width must be in [8, 32767] (Radiance RLE)")
     rgbe = to_rgbe(sky(w, h))
     with open(a.out, "wb") as f:
         f.write(b"#?RADIANCE\n# penumbra scripts/make_sky.py: procedural sky, sun 35 deg up\n")
         f.write(b"FORMAT=32-bit_rle_rgbe\n\n")
         f.write(f"-Y {h} +X {w}\n".encode())
-        f.write(rgbe.tobytes())
+        for row in rgbe:
+            f.write(rle_scanline(row))
     print(f"wrote {a.out}: {w}x{h}")
 
 
