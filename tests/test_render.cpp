@@ -114,22 +114,29 @@ json enclosure(float albedo, int max_depth, const std::string& strategy) {
           {"lights", lights}};
 }
 
+// The mean over every pixel and channel, and its standard error.
+struct ImageMean {
+  double mean, se;
+};
+ImageMean image_mean(const Film& f) {
+  auto m = f.mean();
+  auto v = f.variance_of_mean();
+  double sum = 0, var = 0;
+  for (size_t i = 0; i < m.size(); ++i) {
+    sum += m[i];
+    var += v[i];
+  }
+  double n = double(m.size());
+  return {sum / n, std::sqrt(var) / n};
+}
+
 class Enclosure : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Enclosure, RadianceMatchesNeumannSeries) {
   const float a = 0.6f;
   for (int depth : {0, 1, 3, 40}) {
     Scene s = parse_scene(enclosure(a, depth, GetParam()), "enclosure", ".");
-    Film f = render(s);
-    auto m = f.mean();
-    auto v = f.variance_of_mean();
-    double sum = 0, var = 0;
-    for (size_t i = 0; i < m.size(); ++i) {
-      sum += m[i];
-      var += v[i];
-    }
-    double n = double(m.size());
-    double mean = sum / n, se = std::sqrt(var) / n;
+    const auto [mean, se] = image_mean(render(s));
     double expected = (1 - std::pow(double(a), depth + 1)) / (1 - a);
     EXPECT_NEAR(mean, expected, 4 * se + 1e-6) << GetParam() << ", max depth " << depth << ", se " << se;
     EXPECT_NEAR(mean, expected, 0.01 * expected) << GetParam() << ", max depth " << depth;
@@ -191,16 +198,7 @@ TEST_P(EmissiveMeshEnclosure, RadianceMatchesNeumannSeries) {
   for (int depth : {1, 30}) {
     Scene s = parse_scene(emissive_enclosure(a, depth, c.strategy, c.mirror), "mesh-enclosure", ".");
     ASSERT_EQ(s.lights.size(), 12u);
-    Film f = render(s);
-    auto m = f.mean();
-    auto v = f.variance_of_mean();
-    double sum = 0, var = 0;
-    for (size_t i = 0; i < m.size(); ++i) {
-      sum += m[i];
-      var += v[i];
-    }
-    double n = double(m.size());
-    double mean = sum / n, se = std::sqrt(var) / n;
+    const auto [mean, se] = image_mean(render(s));
     double expected = (1 - std::pow(double(a), depth + 1)) / (1 - a);
     EXPECT_NEAR(mean, expected, 4 * se + 1e-6)
         << c.strategy << (c.mirror ? ", mirrored" : "") << ", max depth " << depth << ", se " << se;
