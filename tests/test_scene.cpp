@@ -277,13 +277,17 @@ namespace {
 TEST(SceneFeatures, CoverWhatTheSceneUses) {
   for (const char* name : {"cornell-sphere", "cornell-near", "occlusion"})
     EXPECT_EQ(load_scene(name).features(), 0u) << name;
-  const uint32_t glossy = load_scene("glossy").features();
-  EXPECT_TRUE(glossy & kFeatureSpecular);
-  EXPECT_TRUE(glossy & kFeatureEnvironment);
   std::string source;
   nlohmann::json j = load_scene_json("cornell-sphere", {}, &source);
   j["materials"]["white"] = {{"base_color", {0.5, 0.5, 0.5}}, {"metallic", 0.0}, {"roughness", 0.5}};
   EXPECT_EQ(parse_scene(j, "test", ".").features(), uint32_t(kFeatureSpecular));
+  j["environment"] = {{"file", std::string(PENUMBRA_SOURCE_DATA) + "/sky.hdr"}};
+  EXPECT_EQ(parse_scene(j, "test", ".").features(), uint32_t(kFeatureSpecular | kFeatureEnvironment));
+  // An OBJ with normals, uvs and a texture.
+  j.erase("environment");
+  j["models"] = {{{"file", std::string(PENUMBRA_TEST_DATA) + "/tiny_textured.obj"}}};
+  const uint32_t obj = parse_scene(j, "test", ".").features();
+  EXPECT_EQ(obj & (kFeatureShading | kFeatureTextures), uint32_t(kFeatureShading | kFeatureTextures));
 }
 
 }  // namespace
