@@ -14,6 +14,7 @@
 #pragma once
 
 #include "common.h"
+#include "sampling.h"
 #include "texture.h"
 #include "vec.h"
 
@@ -30,15 +31,7 @@ struct Distribution1DView {
 
 // Continuous sample x in [0, 1) with density func[i] / integral; *piece gets i.
 PN_FN float sample_distribution(const Distribution1DView& d, float u, float* pdf, uint32_t* piece) {
-  // Largest i with cdf[i] <= u (binary search over [0, n)).
-  uint32_t lo = 0, hi = d.n;
-  while (hi - lo > 1) {
-    uint32_t mid = (lo + hi) / 2;
-    if (d.cdf[mid] <= u) lo = mid;
-    else hi = mid;
-  }
-  // Skip pieces of zero probability that u may land on through rounding.
-  while (lo + 1 < d.n && d.cdf[lo + 1] <= d.cdf[lo]) ++lo;
+  const uint32_t lo = find_cdf_piece(d.cdf, d.n, u);
   *piece = lo;
   float width = d.cdf[lo + 1] - d.cdf[lo];
   float du = width > 0.f ? (u - d.cdf[lo]) / width : 0.5f;

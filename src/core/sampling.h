@@ -59,6 +59,21 @@ PN_FN Vec3 sample_uniform_parallelogram(Vec2 u, Vec3 p0, Vec3 e1, Vec3 e2) {
   return p0 + e1 * u.x + e2 * u.y;
 }
 
+// --- Inverting a discrete CDF ---------------------------------------------------
+// cdf holds n + 1 non-decreasing values from cdf[0] = 0 to cdf[n] = 1. Returns the
+// piece i with cdf[i] <= u < cdf[i + 1], skipping pieces of zero probability that
+// u may land on through rounding.
+PN_FN uint32_t find_cdf_piece(const float* cdf, uint32_t n, float u) {
+  uint32_t lo = 0, hi = n;  // largest i in [0, n) with cdf[i] <= u
+  while (hi - lo > 1) {
+    uint32_t mid = (lo + hi) / 2;
+    if (cdf[mid] <= u) lo = mid;
+    else hi = mid;
+  }
+  while (lo + 1 < n && cdf[lo + 1] <= cdf[lo]) ++lo;
+  return lo;
+}
+
 // --- Uniform triangle: barycentrics (b1, b2) of a uniform point, pdf = 1 / area.
 // The square-to-triangle map of Heitz 2019 ("A Low-Distortion Map Between
 // Triangle and Square"), which keeps neighbouring u neighbouring.

@@ -141,18 +141,17 @@ PN_FN void resolve_triangle_hit(const InstanceView& inst, uint32_t tri, float b1
       const float inv = 1.f / det;
       dpdu = (e1 * dv2 - e2 * dv1) * inv;
       const Vec3 dpdv = (e2 * du1 - e1 * du2) * inv;
-      // Tangent-space +Y points along decreasing image v (glTF/OpenGL normal maps).
+      // Tangent-space +Y points along decreasing image v (glTF/OpenGL normal maps);
+      // a mirroring instance transform flips cross products, hence the sign.
       sign = dot(cross(n, dpdu), dpdv) > 0.f ? -1.f : 1.f;
+      if (inst.to_world.linear_determinant() < 0.f) sign = -sign;
     }
   }
   hit->p = inst.to_world.point(p);
   hit->n = normalize(inst.to_object.transpose_vector(n));
   hit->ns = kShading ? normalize(inst.to_object.transpose_vector(ns)) : hit->n;
   hit->dpdu = inst.to_world.vector(dpdu);
-  // A mirroring transform flips cross products, hence the bitangent's sign.
-  const Affine& M = inst.to_world;
-  const float det = dot(cross(M.vector(Vec3(1.f, 0.f, 0.f)), M.vector(Vec3(0.f, 1.f, 0.f))), M.vector(Vec3(0.f, 0.f, 1.f)));
-  hit->bitangent_sign = det < 0.f ? -sign : sign;
+  hit->bitangent_sign = sign;
   hit->uv = uv;
   hit->material = triangle_material(inst, tri);
   hit->light = inst.light >= 0 ? inst.light
@@ -252,13 +251,7 @@ PN_FN uint32_t select_light(const SceneView& scene, float u, float* pmf) {
     *pmf = 1.f / float(n);
     return pn_min(uint32_t(u * float(n)), n - 1);
   }
-  uint32_t lo = 0, hi = n;  // largest i with cdf[i] <= u
-  while (hi - lo > 1) {
-    uint32_t mid = (lo + hi) / 2;
-    if (scene.light_cdf[mid] <= u) lo = mid;
-    else hi = mid;
-  }
-  while (lo + 1 < n && scene.light_cdf[lo + 1] <= scene.light_cdf[lo]) ++lo;
+  const uint32_t lo = find_cdf_piece(scene.light_cdf, n, u);
   *pmf = scene.light_cdf[lo + 1] - scene.light_cdf[lo];
   return lo;
 }

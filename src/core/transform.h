@@ -24,6 +24,12 @@ struct Affine {
     return Vec3(m[0] * v.x + m[4] * v.y + m[8] * v.z, m[1] * v.x + m[5] * v.y + m[9] * v.z,
                 m[2] * v.x + m[6] * v.y + m[10] * v.z);
   }
+  // Determinant of the 3x3 part: negative for a mirroring transform, which
+  // reverses the winding (and the handedness of cross products) it maps.
+  PN_HD float linear_determinant() const {
+    return m[0] * (m[5] * m[10] - m[6] * m[9]) + m[1] * (m[6] * m[8] - m[4] * m[10]) +
+           m[2] * (m[4] * m[9] - m[5] * m[8]);
+  }
   PN_HD bool is_identity() const {
     const float id[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
     for (int i = 0; i < 12; ++i)
@@ -48,7 +54,7 @@ PN_FN Affine compose(const Affine& a, const Affine& b) {
 PN_FN Affine inverse(const Affine& a, bool* ok) {
   const float* m = a.m;
   float c00 = m[5] * m[10] - m[6] * m[9], c01 = m[6] * m[8] - m[4] * m[10], c02 = m[4] * m[9] - m[5] * m[8];
-  float det = m[0] * c00 + m[1] * c01 + m[2] * c02;
+  float det = a.linear_determinant();
   Affine r;
   *ok = det != 0.f && std::isfinite(det);
   if (!*ok) return r;

@@ -689,28 +689,16 @@ void finalize_scene(Scene& s) {
   for (TriangleMesh& m : s.meshes) m.face_lights.clear();
   std::vector<float> tex_avg(s.textures.size(), -1.f);
   auto emits = [&](uint32_t mat) { return !is_black(s.materials[mat].emission); };
-  for (size_t mi = 0; mi < s.meshes.size(); ++mi) {
-    TriangleMesh& m = s.meshes[mi];
-    bool any = false;
-    for (const Instance& inst : s.instances) {
-      if (inst.mesh != mi || inst.light >= 0) continue;
-      if (m.face_materials.empty() ? emits(inst.material) : false) any = true;
-    }
-    for (uint32_t fm : m.face_materials) any = any || emits(fm);
-    if (!any) continue;
-    m.face_lights.assign(m.indices.size(), -1);
-  }
-  std::vector<int32_t> ranks;
   for (Instance& inst : s.instances) {
     inst.light_base = -1;
-    const TriangleMesh& m = s.meshes[inst.mesh];
-    if (inst.light >= 0 || m.face_lights.empty()) continue;
-    // Ranks are per mesh, so every instance of it numbers its triangles alike;
-    // an instance whose material does not emit (no face materials) has none.
-    if (m.face_materials.empty() && !emits(inst.material)) continue;
+    // Quad lights are lights already; an instance none of whose materials emits has none.
+    if (inst.light >= 0 || !s.instance_emits(inst)) continue;
+    TriangleMesh& m = s.meshes[inst.mesh];
+    // Ranks are per mesh, so every instance of it numbers its triangles alike.
+    auto& fl = m.face_lights;
+    if (fl.empty()) fl.assign(m.indices.size(), -1);
     inst.light_base = int32_t(s.lights.size());
     int32_t rank = 0;
-    auto& fl = s.meshes[inst.mesh].face_lights;
     for (size_t t = 0; t < m.indices.size(); ++t) {
       uint32_t mat = m.face_materials.empty() ? inst.material : m.face_materials[t];
       const auto& tri = m.indices[t];
@@ -725,9 +713,7 @@ void finalize_scene(Scene& s) {
       Light l = Light::triangle(p0, p1, p2, mm.emission);
       // A mirroring transform reverses the world-space winding; the side that
       // emits is the one hits call front (the object normal's inverse transpose).
-      if (dot(l.n, inst.to_object.transpose_vector(cross(m.positions[tri[1]] - m.positions[tri[0]],
-                                                         m.positions[tri[2]] - m.positions[tri[0]]))) < 0.f)
-        l.n = -l.n;
+      if (inst.to_world.linear_determinant() < 0.f) l.n = -l.n;
       if (!m.uvs.empty()) {
         l.uv0 = m.uvs[tri[0]];
         l.uv1 = m.uvs[tri[1]];
@@ -784,6 +770,26 @@ void finalize_scene(Scene& s) {
   }
   if (!s.lights.empty()) build_cdf(power.data(), power.size(), s.light_cdf.data());
   else s.light_cdf.clear();
+}
+
+namespace {
+// Whether a material the instance's triangles use satisfies `pred`: the mesh's
+// per-face materials, or else the instance's own.
+template <class Pred>
+bool any_instance_material(const Scene& s, const Instance& inst, Pred pred) {
+  const TriangleMesh& m = s.meshes[inst.mesh];
+  if (m.face_materials.empty()) return pred(s.materials[inst.material]);
+  for (uint32_t fm : m.face_materials)
+    if (pred(s.materials[fm])) return true;
+  return false;
+}
+}  // namespace
+
+bool Scene::instance_alpha_masked(const Instance& inst) const {
+  return any_instance_material(*this, inst, [](const Material& m) { return m.alpha_mode == AlphaMode::Mask; });
+}
+bool Scene::instance_emits(const Instance& inst) const {
+  return any_instance_material(*this, inst, [](const Material& m) { return !is_black(m.emission); });
 }
 
 uint32_t Scene::features() const {

@@ -120,7 +120,11 @@ struct Scene {
 
   Camera make_camera() const;
   float bounding_radius() const;
-  uint32_t features() const;  // SceneFeature bits (core/scene_view.h) the scene uses  // of everything that is not a light at infinity
+  uint32_t features() const;  // SceneFeature bits (core/scene_view.h) the scene uses
+  // Whether some triangle of the instance has an alpha-masked material (then
+  // backends test its hits: Embree filters, OptiX any-hit), or an emissive one.
+  bool instance_alpha_masked(const Instance& inst) const;
+  bool instance_emits(const Instance& inst) const;  // of everything that is not a light at infinity
   IntegratorSettings integrator() const;
   size_t triangle_count() const;
 };

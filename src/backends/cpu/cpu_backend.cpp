@@ -96,13 +96,8 @@ class CpuBackend final : public Backend {
     // placement: the same structure as the GPU's GAS-per-mesh plus IAS.
     // Meshes with any alpha-masked material get the filter (it is per geometry).
     std::vector<bool> masked(scene.meshes.size(), false);
-    for (const Instance& inst : scene.instances) {
-      const TriangleMesh& m = scene.meshes[inst.mesh];
-      auto is_mask = [&](uint32_t mat) { return scene.materials[mat].alpha_mode == AlphaMode::Mask; };
-      bool any = m.face_materials.empty() && is_mask(inst.material);
-      for (uint32_t fm : m.face_materials) any = any || is_mask(fm);
-      if (any) masked[inst.mesh] = true;
-    }
+    for (const Instance& inst : scene.instances)
+      if (scene.instance_alpha_masked(inst)) masked[inst.mesh] = true;
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
       const TriangleMesh& m = scene.meshes[mi];
       RTCScene ms = rtcNewScene(device_);

@@ -798,17 +798,9 @@ class OptixBackendImpl final : public OptixBackend {
     }
   }
 
-  // Whether an instance's triangles may be alpha-masked (as the CPU backend
-  // decides which meshes get the Embree filter).
+  // Whether a triangle's material is alpha-masked (per-face SBT records).
   bool masked_material(uint32_t material) const {
     return material < scene_.materials.size() && scene_.materials[material].alpha_mode == AlphaMode::Mask;
-  }
-  bool instance_masked(const Instance& inst) const {
-    const TriangleMesh& m = scene_.meshes[inst.mesh];
-    if (m.face_materials.empty()) return masked_material(inst.material);
-    for (uint32_t fm : m.face_materials)
-      if (masked_material(fm)) return true;
-    return false;
   }
 
   // Builds one acceleration structure into `out`; compacts GASes.
@@ -861,7 +853,7 @@ class OptixBackendImpl final : public OptixBackend {
     bool any_masked = false;
     for (const Instance& inst : scene_.instances) {
       used.at(inst.mesh) = true;
-      if (instance_masked(inst)) mesh_masked[inst.mesh] = true, any_masked = true;
+      if (scene_.instance_alpha_masked(inst)) mesh_masked[inst.mesh] = true, any_masked = true;
     }
     base_params_.ray_flags = any_masked ? OPTIX_RAY_FLAG_NONE : OPTIX_RAY_FLAG_DISABLE_ANYHIT;
 
@@ -969,7 +961,7 @@ class OptixBackendImpl final : public OptixBackend {
       o.instanceId = unsigned(i);
       o.sbtOffset = optix::kSbtMesh;
       o.visibilityMask = 255;
-      o.flags = instance_masked(inst) ? OPTIX_INSTANCE_FLAG_NONE : OPTIX_INSTANCE_FLAG_DISABLE_ANYHIT;
+      o.flags = scene_.instance_alpha_masked(inst) ? OPTIX_INSTANCE_FLAG_NONE : OPTIX_INSTANCE_FLAG_DISABLE_ANYHIT;
       o.traversableHandle = mesh_handle[inst.mesh];
       instances.push_back(o);
     }
