@@ -392,7 +392,7 @@ TEST(TriangleLight, AreaSamplingMatchesRaycastPdfAndIsUniform) {
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) exp[i * n + j] = (i + j < n - 1 ? 2.0 : i + j == n - 1 ? 1.0 : 0.0) / (n * n) * N;
   for (int i = 0; i < N; ++i) {
-    LightSample s = sample_light_area(l, x, rng.uniform2());
+    LightSample s = AreaSampling::sample_triangle(l, LightSampleContext{x, Vec3(0, 1, 0)}, rng.uniform2());
     ASSERT_GT(s.pdf, 0.f);
     ASSERT_GE(s.b.x, 0.f);
     ASSERT_GE(s.b.y, 0.f);
@@ -407,10 +407,8 @@ TEST(TriangleLight, AreaSamplingMatchesRaycastPdfAndIsUniform) {
   auto r = chi2_test(obs, exp);
   EXPECT_GT(r.p_value, kMinP) << r.message;
   // Behind the emitting side: nothing.
-  for (int i = 0; i < 100; ++i) EXPECT_EQ(sample_light_area(l, centre - l.n * 0.5f, rng.uniform2()).pdf, 0.f);
-  // Every strategy samples triangles by area.
-  Vec2 u(0.3f, 0.7f);
-  EXPECT_EQ(sample_light_solid_angle(l, x, u).pdf, sample_light_area(l, x, u).pdf);
+  const LightSampleContext behind{centre - l.n * 0.5f, Vec3(0, 1, 0)};
+  for (int i = 0; i < 100; ++i) EXPECT_EQ(AreaSampling::sample_triangle(l, behind, rng.uniform2()).pdf, 0.f);
 }
 
 TEST(TriangleLight, IrradianceMatchesLambertsFormula) {
@@ -512,8 +510,11 @@ TEST(LightSelection, ProportionalToPowerWithTheReportedPmf) {
   for (uint32_t i = 0; i < v.num_lights; ++i) exp[i] = N * power[i] / total;
   for (int i = 0; i < N; ++i) {
     float pmf = 0;
-    uint32_t k = select_light(v, rng.uniform(), &pmf);
+    SelectedLight sel = select_light(v.selection, v.num_lights, LightSelection::Power, LightSampleContext(), rng.uniform());
+    uint32_t k = sel.index;
+    pmf = sel.pmf;
     ASSERT_LT(k, v.num_lights);
+    ASSERT_EQ(pmf, selection_pmf(v.selection, v.num_lights, LightSelection::Power, LightSampleContext(), k));
     ASSERT_NEAR(pmf, power[k] / total, 1e-5 + 1e-4 * power[k] / total) << "light " << k;
     obs[k] += 1;
   }
@@ -521,11 +522,27 @@ TEST(LightSelection, ProportionalToPowerWithTheReportedPmf) {
   EXPECT_GT(r.p_value, kMinP) << r.message;
   // The edges of u: never out of range, never a zero-power light.
   for (float u : {0.f, 0.5f, kOneMinusEpsilon}) {
-    float pmf;
-    uint32_t k = select_light(v, u, &pmf);
-    EXPECT_LT(k, v.num_lights);
-    EXPECT_GT(pmf, 0.f);
+    SelectedLight sel = select_light(v.selection, v.num_lights, LightSelection::Power, LightSampleContext(), u);
+    EXPECT_LT(sel.index, v.num_lights);
+    EXPECT_GT(sel.pmf, 0.f);
   }
+}
+
+TEST(LightSelection, UniformGivesEveryLightTheSameChance) {
+  Scene s = parse_scene(lights_scene(), "lights", ".");
+  auto host = make_host_view(s);
+  const SceneView& v = host->view;
+  Rng rng(3, 1, 5);
+  const int N = 200000;
+  std::vector<double> obs(v.num_lights, 0.0), exp(v.num_lights, double(N) / v.num_lights);
+  for (int i = 0; i < N; ++i) {
+    SelectedLight sel = select_light(v.selection, v.num_lights, LightSelection::Uniform, LightSampleContext(), rng.uniform());
+    ASSERT_EQ(sel.pmf, 1.f / v.num_lights);
+    obs[sel.index] += 1;
+  }
+  auto r = chi2_test(obs, exp);
+  EXPECT_GT(r.p_value, kMinP) << r.message;
+  EXPECT_EQ(select_light(v.selection, 0, LightSelection::Power, LightSampleContext(), 0.5f).pmf, 0.f);  // no lights
 }
 
 }  // namespace

@@ -1,12 +1,14 @@
-// Every sampling routine against its own pdf: chi-square goodness of fit of the
-// sampled directions, the pdf reported with each sample against the pdf
-// computed independently from the geometry, and pdf integrals.
+// The sampling primitives against their own pdfs: chi-square goodness of fit,
+// pdf integrals, inverse round trips, and the solid angles the spherical
+// samplers use against independent quadrature. Fixed seeds: deterministic.
+// (Light-sampling strategies: test_light_strategies.cpp.)
 #include <gtest/gtest.h>
 
 #include "core/geometry.h"
-#include "core/lights.h"
+#include "core/projected_cap.h"
 #include "core/rng.h"
 #include "core/sampling.h"
+#include "core/spherical_polygons.h"
 #include "stat_util.h"
 
 namespace pn {
@@ -21,8 +23,8 @@ constexpr double kMinP = 1e-3;  // fixed seeds: a correct sampler passes determi
 // Draws kSamples directions, bins them, and compares with the pdf's integrals.
 // `sample` returns false for a rejected sample (counted in the outside bin).
 void expect_matches_pdf(const DirectionGrid& grid, const std::function<bool(Vec2, Vec3*)>& sample,
-                        const std::function<double(Vec3)>& pdf, uint32_t seed) {
-  std::vector<double> expected = grid.integrate(pdf);
+                        const std::function<double(Vec3)>& pdf, uint32_t seed, int res = 12) {
+  std::vector<double> expected = grid.integrate(pdf, res);
   double inside = 0;
   for (int i = 0; i + 1 < grid.bins(); ++i) inside += expected[i];
   expected.back() = std::max(0.0, 1.0 - inside);
@@ -38,49 +40,53 @@ void expect_matches_pdf(const DirectionGrid& grid, const std::function<bool(Vec2
   EXPECT_GT(r.p_value, kMinP) << r.message;
 }
 
-double integrate_pdf(const DirectionGrid& grid, const std::function<double(Vec3)>& pdf) {
-  auto e = grid.integrate(pdf, 24);
+double integrate_pdf(const DirectionGrid& grid, const std::function<double(Vec3)>& pdf, int res = 24) {
+  auto e = grid.integrate(pdf, res);
   double s = 0;
   for (int i = 0; i + 1 < grid.bins(); ++i) s += e[i];
   return s;
 }
 
-// Adapts a light-sampling strategy to expect_matches_pdf: the sampled direction,
-// rejected (outside bin) when the strategy returns pdf 0.
-std::function<bool(Vec2, Vec3*)> direction_sampler(LightSample (*strategy)(const Light&, Vec3, Vec2),
-                                                   const Light& l, Vec3 x) {
-  return [strategy, &l, x](Vec2 u, Vec3* w) {
-    LightSample s = strategy(l, x, u);
-    *w = s.wi;
-    return s.pdf > 0.f;
-  };
-}
-
-// --- Independent pdfs from geometry --------------------------------------------
-
-// Solid-angle pdf of uniform area sampling of a sphere light, by ray casting.
-double sphere_area_pdf(Vec3 x, const Light& l, Vec3 w) {
-  float t;
-  if (!intersect_sphere(Ray(x, w), l.p, l.radius, 0.f, kInf, &t)) return 0.0;
-  Vec3 y = x + w * t;
-  Vec3 n = normalize(y - l.p);
-  double cos_l = -dot(n, w);
-  return cos_l > 0 ? double(t) * t / (l.area * cos_l) : 0.0;
-}
-
-double quad_area_pdf(Vec3 x, const Light& l, Vec3 w) {
-  float t;
-  Vec3 p0 = l.p, p1 = l.p + l.e1, p2 = l.p + l.e1 + l.e2, p3 = l.p + l.e2;
-  Ray r(x, w);
-  if (!intersect_triangle(r, p0, p1, p2, 0.f, kInf, &t) && !intersect_triangle(r, p0, p2, p3, 0.f, kInf, &t))
-    return 0.0;
-  double cos_l = -dot(l.n, w);
-  return cos_l > 0 ? double(t) * t / (l.area * cos_l) : 0.0;
-}
-
-double cone_cos_max(Vec3 x, const Light& l) {
-  double d2 = length_sq(l.p - x);
-  return std::sqrt(std::max(0.0, 1.0 - double(l.radius) * l.radius / d2));
+// Chi-square of points in [0,1]^2 (or any box) on an n x n grid against the
+// integrals of `density` over the cells (midpoint rule on res x res sub-cells).
+void expect_points_match_density(const std::function<Vec2(Vec2)>& sample, const std::function<double(Vec2)>& density,
+                                 Vec2 lo, Vec2 hi, uint32_t seed, int n = 16, int res = 8) {
+  // Cells: n x n over [lo, hi]; points outside go to one more bin.
+  std::vector<double> expected(n * n + 1, 0.0), observed(n * n + 1, 0.0);
+  const double cw = (hi.x - lo.x) / n, ch = (hi.y - lo.y) / n;
+  double total = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      double acc = 0;
+      for (int a = 0; a < res; ++a)
+        for (int b = 0; b < res; ++b)
+          acc += density(Vec2(float(lo.x + cw * (i + (a + 0.5) / res)), float(lo.y + ch * (j + (b + 0.5) / res))));
+      expected[i * n + j] = acc * cw * ch / (res * res);
+      total += expected[i * n + j];
+    }
+  Rng rng(0, 0, seed);
+  for (int k = 0; k < kSamples; ++k) {
+    Vec2 p = sample(rng.uniform2());
+    int i = int((p.x - lo.x) / cw), j = int((p.y - lo.y) / ch);
+    if (i < 0 || j < 0 || i >= n || j >= n) observed.back() += 1;
+    else observed[i * n + j] += 1;
+  }
+  // A cell that a curved boundary cuts to a sliver between the midpoints can
+  // come out empty although points land in it: integrate it again, finer.
+  for (int c = 0; c < n * n; ++c)
+    if (observed[c] > 0 && expected[c] * kSamples < 0.5) {
+      const int i = c / n, j = c % n, fine = 256;
+      double acc = 0;
+      for (int a = 0; a < fine; ++a)
+        for (int b = 0; b < fine; ++b)
+          acc += density(Vec2(float(lo.x + cw * (i + (a + 0.5) / fine)), float(lo.y + ch * (j + (b + 0.5) / fine))));
+      total += acc * cw * ch / (double(fine) * fine) - expected[c];
+      expected[c] = acc * cw * ch / (double(fine) * fine);
+    }
+  expected.back() = std::max(0.0, 1.0 - total);
+  for (double& e : expected) e *= kSamples;
+  auto r = chi2_test(observed, expected);
+  EXPECT_GT(r.p_value, kMinP) << r.message;
 }
 
 // --- Primitive samplers ---------------------------------------------------------
@@ -101,165 +107,305 @@ TEST(Sampling, CosineHemisphereMatchesPdf) {
   EXPECT_NEAR(integrate_pdf(grid, pdf), 1.0, 1e-4);
 }
 
-TEST(Sampling, UniformConeMatchesPdf) {
-  for (float cos_max : {0.0f, 0.7f, 0.999f}) {
-    DirectionGrid grid(Vec3(0, 0, 1), cos_max, 16, 16);  // bin edges on the pdf's discontinuity
-    auto pdf = [cos_max](Vec3 w) { return w.z >= cos_max ? double(uniform_cone_pdf(cos_max)) : 0.0; };
+// sin^2(theta_max) from a hemisphere down to a cone far narrower than float's
+// 1 - cos can resolve (1e-9: a light 30,000 radii away).
+class UniformCone : public ::testing::TestWithParam<float> {};
+
+TEST_P(UniformCone, MatchesPdfAndInverts) {
+  const Cone c = make_cone(GetParam());
+  double sin2 = GetParam(), cos_max = std::sqrt(1.0 - sin2);
+  EXPECT_NEAR(c.one_minus_cos_max, sin2 / (1.0 + cos_max), 1e-6 * c.one_minus_cos_max);
+  auto pdf = [&](Vec3 w) { return cone_contains(c, w) ? double(uniform_cone_pdf(c)) : 0.0; };
+  if (sin2 > 1e-4) {  // a grid in cos(theta) resolves the cone
+    DirectionGrid grid(Vec3(0, 0, 1), cos_max, 16, 16);
     expect_matches_pdf(
-        grid, [cos_max](Vec2 u, Vec3* w) { *w = sample_uniform_cone(u, cos_max); return true; }, pdf, 3);
-    DirectionGrid exact(Vec3(0, 0, 1), cos_max, 8, 8);
-    EXPECT_NEAR(integrate_pdf(exact, pdf), 1.0, 1e-4) << "cos_max " << cos_max;
+        grid, [&](Vec2 u, Vec3* w) { *w = sample_uniform_cone(u, c).direction(); return true; }, pdf, 3);
+    EXPECT_NEAR(integrate_pdf(DirectionGrid(Vec3(0, 0, 1), cos_max, 8, 8), pdf), 1.0, 1e-4);
+  }
+  // In any case: u.x is (1 - cos) / (1 - cos_max) and u.y the azimuth, which the
+  // inverse recovers; every sample lies in the cone.
+  Rng rng(3, 3, 3);
+  for (int i = 0; i < 20000; ++i) {
+    Vec2 u = rng.uniform2();
+    ConeSample s = sample_uniform_cone(u, c);
+    Vec3 w = s.direction();
+    ASSERT_TRUE(cone_contains(c, w)) << "u " << u.x << " " << u.y;
+    const double omc = sin2 / (1.0 + cos_max), t = u.x * omc;  // 1 - cos(theta), in double
+    EXPECT_NEAR(s.sin2_theta, t * (2 - t), 1e-5 * sin2 + 1e-15);
+    Vec2 v = invert_uniform_cone_sample(w, c);
+    EXPECT_NEAR(v.x, u.x, 2e-3);
+    EXPECT_NEAR(std::fmod(v.y - u.y + 1.5f, 1.f) - 0.5f, 0.f, 2e-4);
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Sin2ThetaMax, UniformCone, ::testing::Values(1.f, 0.51f, 0.002f, 1e-6f, 1e-9f));
 
 TEST(Sampling, ParallelogramIsUniform) {
   // Uniform over the parameter square means uniform over area (affine map).
-  const int n = 8;
-  std::vector<double> obs(n * n, 0.0), exp(n * n, double(kSamples) / (n * n));
-  Rng rng(0, 0, 4);
   Vec3 p0(1, 2, 3), e1(2, 0, 0), e2(0.5, 1, 0);
-  for (int i = 0; i < kSamples; ++i) {
-    Vec3 y = sample_uniform_parallelogram(rng.uniform2(), p0, e1, e2);
-    // Recover (u, v) from the point: solve y - p0 = u e1 + v e2 in the xy plane.
-    Vec3 q = y - p0;
-    double v = q.y / e2.y, u = (q.x - v * e2.x) / e1.x;
-    obs[std::min(n - 1, int(v * n)) * n + std::min(n - 1, int(u * n))] += 1;
-  }
-  auto r = chi2_test(obs, exp);
-  EXPECT_GT(r.p_value, kMinP) << r.message;
+  expect_points_match_density(
+      [&](Vec2 u) {
+        Vec3 q = sample_uniform_parallelogram(u, p0, e1, e2) - p0;
+        float v = q.y / e2.y;
+        return Vec2((q.x - v * e2.x) / e1.x, v);
+      },
+      [](Vec2) { return 1.0; }, Vec2(0, 0), Vec2(1, 1), 4, 8);
 }
 
-// --- Light-sampling strategies, in solid angle -----------------------------------
+TEST(Sampling, LinearAndBilinearMatchPdfAndInvert) {
+  for (auto ab : {std::pair<float, float>{1.f, 1.f}, {0.f, 2.f}, {3.f, 0.1f}, {0.01f, 0.01f}}) {
+    const float a = ab.first, b = ab.second;
+    expect_points_match_density([&](Vec2 u) { return Vec2(sample_linear(u.x, a, b), u.y); },
+                                [&](Vec2 p) { return double(linear_pdf(p.x, a, b)); }, Vec2(0, 0), Vec2(1, 1), 5, 32, 4);
+    Rng rng(5, 5, 5);
+    for (int i = 0; i < 1000; ++i) {
+      float u = rng.uniform();
+      EXPECT_NEAR(invert_linear_sample(sample_linear(u, a, b), a, b), u, 1e-5f);
+    }
+  }
+  const float corner_sets[3][4] = {{1, 2, 3, 4}, {0.01f, 1, 0.01f, 0.5f}, {1, 1, 1, 1}};
+  for (const auto& w : corner_sets) {
+    expect_points_match_density([&](Vec2 u) { return sample_bilinear(u, w); },
+                                [&](Vec2 p) { return double(bilinear_pdf(p, w)); }, Vec2(0, 0), Vec2(1, 1), 6);
+    Rng rng(6, 6, 6);
+    for (int i = 0; i < 1000; ++i) {
+      Vec2 u = rng.uniform2();
+      Vec2 v = invert_bilinear_sample(sample_bilinear(u, w), w);
+      EXPECT_NEAR(v.x, u.x, 1e-4f);
+      EXPECT_NEAR(v.y, u.y, 1e-4f);
+    }
+  }
+}
 
-class SphereLightSampling : public ::testing::TestWithParam<float> {};
+// A segment of the unit disk, x >= cos(theta_d): uniform over its area.
+class DiskSegment : public ::testing::TestWithParam<float> {};
 
-TEST_P(SphereLightSampling, AreaStrategyMatchesJacobianPdf) {
-  const float r = 0.5f, d = GetParam() * r;
-  Light l = Light::sphere(Vec3(0.3f, -0.2f, 1.f), r, Vec3(1.f));
-  Vec3 x = l.p + normalize(Vec3(0.3f, 1.f, -0.4f)) * d;
-  double cos_max = cone_cos_max(x, l);
-  DirectionGrid grid(l.p - x, cos_max, 12, 16);
-  auto pdf = [&](Vec3 w) { return sphere_area_pdf(x, l, w); };
-  // The pdf each sample reports equals the one computed by casting its ray
-  // (away from the silhouette, where grazing incidence makes the ray cast itself
-  // ill-conditioned).
-  Rng rng(9, 9, 9);
-  int rejected = 0;
-  for (int i = 0; i < 4000; ++i) {
-    LightSample s = sample_light_area(l, x, rng.uniform2());
-    if (s.pdf == 0.f) {
+TEST_P(DiskSegment, IsUniformOverItsArea) {
+  const float theta = GetParam();
+  const double d = std::cos(double(theta));
+  const double area = std::acos(d) - d * std::sqrt(std::max(0.0, 1 - d * d));
+  const float A = disk_segment_area(theta);
+  EXPECT_NEAR(A, area, 2e-6 * area + 1e-9) << "the segment's area (series below 0.25)";
+  Vec2 lo(float(d), -float(std::sin(std::min<double>(theta, M_PI / 2)))), hi(1.f, -lo.y);
+  expect_points_match_density(
+      [&](Vec2 u) { return sample_disk_segment(u, theta, A); },
+      [&](Vec2 p) { return (p.x >= d && p.x * p.x + p.y * p.y <= 1.f) ? 1.0 / area : 0.0; }, lo, hi, 7, 16, 12);
+  Rng rng(7, 7, 7);
+  for (int i = 0; i < 10000; ++i) {
+    Vec2 p = sample_disk_segment(rng.uniform2(), theta, A);
+    ASSERT_GE(p.x, d - 1e-6);
+    ASSERT_LE(p.x * p.x + p.y * p.y, 1.f + 1e-5f);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(HalfAngles, DiskSegment, ::testing::Values(0.05f, 0.3f, 1.0f, 1.5707964f, 2.5f, 3.1415926f));
+
+// --- Spherical polygons ------------------------------------------------------------
+
+// Solid angle of a planar polygon seen from x, by quadrature of
+// cos_l / d^2 dA over it (double, n x n midpoints per triangle fan piece).
+double quadrature_solid_angle(Vec3 x, const std::vector<Vec3>& poly, int n = 400) {
+  double sum = 0;
+  for (size_t k = 1; k + 1 < poly.size(); ++k) {
+    Vec3 p0 = poly[0], e1 = poly[k] - p0, e2 = poly[k + 1] - p0;
+    Vec3 N = cross(e1, e2);
+    double A2 = length(N);
+    Vec3 nn = N / float(A2);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n - i; ++j)
+        for (int up = 0; up < (j < n - i - 1 ? 2 : 1); ++up) {
+          // Sub-triangles of the barycentric grid, by their centroids.
+          double b1 = up ? (i + 2.0 / 3) / n : (i + 1.0 / 3) / n, b2 = up ? (j + 2.0 / 3) / n : (j + 1.0 / 3) / n;
+          Vec3 y = p0 + e1 * float(b1) + e2 * float(b2);
+          Vec3 d = y - x;
+          double d2 = length_sq(d);
+          sum += std::fabs(dot(nn, d)) / (d2 * std::sqrt(d2)) * A2 / (2.0 * n * n);
+        }
+  }
+  return sum;
+}
+
+struct PolygonView {
+  Vec3 x, p0, e1, e2;
+};
+
+// Directions from x towards the plane of (p0, e1, e2), binned by where they
+// meet it: plane coordinates (a, b) for a parallelogram, (s, t) with a = s,
+// b = t (1 - s) for a triangle (so that every cell is a whole square);
+// expected = the solid-angle density times |d omega / dA| = cos_l / d^2 times
+// the area element, over each cell.
+void expect_plane_samples_uniform_in_solid_angle(const PolygonView& v, bool triangle, float omega,
+                                                 const std::function<Vec3(Vec2)>& sample, uint32_t seed) {
+  const Vec3 N = cross(v.e1, v.e2);
+  const double jac_area = length(N);
+  const Vec3 nn = normalize(N);
+  expect_points_match_density(
+      [&](Vec2 u) {
+        Vec3 w = sample(u);
+        float t = dot(v.p0 - v.x, nn) / dot(w, nn);
+        Vec3 q = v.x + w * t - v.p0;
+        float e11 = dot(v.e1, v.e1), e12 = dot(v.e1, v.e2), e22 = dot(v.e2, v.e2), det = e11 * e22 - e12 * e12;
+        float q1 = dot(q, v.e1), q2 = dot(q, v.e2);
+        Vec2 ab((q1 * e22 - q2 * e12) / det, (q2 * e11 - q1 * e12) / det);
+        return triangle ? Vec2(ab.x, ab.x < 1.f ? ab.y / (1.f - ab.x) : 0.f) : ab;
+      },
+      [&](Vec2 st) {
+        Vec2 ab = triangle ? Vec2(st.x, st.y * (1.f - st.x)) : st;
+        Vec3 d = v.p0 + v.e1 * ab.x + v.e2 * ab.y - v.x;
+        double d2 = length_sq(d);
+        return std::fabs(dot(nn, d)) / (d2 * std::sqrt(d2)) * jac_area / omega * (triangle ? 1.0 - st.x : 1.0);
+      },
+      Vec2(0, 0), Vec2(1, 1), seed, 12, 12);
+}
+
+struct PolyCase {
+  const char* name;
+  PolygonView v;
+};
+const PolyCase kPolygons[] = {
+    {"overhead", {Vec3(0, 0, 0), Vec3(-0.5f, 1, -0.3f), Vec3(1.2f, 0, 0), Vec3(0, 0, 0.8f)}},
+    {"oblique", {Vec3(0.2f, -0.1f, 0.3f), Vec3(1, 0.3f, -1), Vec3(0, 1.5f, 0.2f), Vec3(0.9f, 0, 0.6f)}},
+    {"close", {Vec3(0.1f, 0.05f, 0.2f), Vec3(-1, 0.1f, -1), Vec3(2, 0, 0), Vec3(0, 0, 2)}},
+    // About 1e-3 sr, a few times the lights' lower bound on spherical sampling.
+    {"far", {Vec3(0, 0, 0), Vec3(5, 5, 5), Vec3(0.5f, 0, 0), Vec3(0, 0.4f, 0.2f)}},
+};
+
+TEST(SphericalTriangle, SolidAngleUniformSamplesAndInverse) {
+  for (const PolyCase& c : kPolygons) {
+    SCOPED_TRACE(c.name);
+    const PolygonView& v = c.v;
+    SphericalTriangle t = make_spherical_triangle(v.x, v.p0, v.p0 + v.e1, v.p0 + v.e2);
+    double q = quadrature_solid_angle(v.x, {v.p0, v.p0 + v.e1, v.p0 + v.e2});
+    EXPECT_NEAR(t.area, q, 2e-4 * q);
+    expect_plane_samples_uniform_in_solid_angle(v, true, t.area, [&](Vec2 u) { return sample_spherical_triangle(t, u); },
+                                                8);
+    Rng rng(8, 8, 8);
+    int far = 0;
+    for (int i = 0; i < 5000; ++i) {
+      Vec2 u = rng.uniform2();
+      Vec2 back = invert_spherical_triangle_sample(t, sample_spherical_triangle(t, u));
+      far += std::fabs(back.x - u.x) > 2e-3f || std::fabs(back.y - u.y) > 2e-3f;
+    }
+    EXPECT_LE(far, 5) << "inverse round trips off by more than 2e-3";
+  }
+}
+
+TEST(SphericalRectangle, SolidAngleUniformSamplesAndInverse) {
+  for (const PolyCase& c : kPolygons) {
+    SCOPED_TRACE(c.name);
+    PolygonView v = c.v;
+    v.e2 = normalize(cross(cross(v.e1, v.e2), v.e1)) * length(v.e2);  // a rectangle
+    SphericalRectangle r = make_spherical_rectangle(v.x, v.p0, v.e1, v.e2);
+    double q = quadrature_solid_angle(v.x, {v.p0, v.p0 + v.e1, v.p0 + v.e1 + v.e2, v.p0 + v.e2});
+    EXPECT_NEAR(r.area, q, 2e-4 * q);
+    expect_plane_samples_uniform_in_solid_angle(v, false, r.area,
+                                                [&](Vec2 u) { return normalize(sample_spherical_rectangle(r, u) - v.x); }, 9);
+    // u = (0, 0) is the corner p0, u.x runs along e1 and u.y along e2.
+    Vec3 c00 = sample_spherical_rectangle(r, Vec2(0.f, 0.f)), c11 = sample_spherical_rectangle(r, Vec2(kOneMinusEpsilon, kOneMinusEpsilon));
+    EXPECT_LT(length(c00 - v.p0), 1e-3f * length(v.e1));
+    EXPECT_LT(length(c11 - (v.p0 + v.e1 + v.e2)), 1e-3f * length(v.e1));
+    EXPECT_LT(length(sample_spherical_rectangle(r, Vec2(kOneMinusEpsilon, 0.f)) - (v.p0 + v.e1)), 1e-3f * length(v.e1));
+    Rng rng(9, 9, 9);
+    int far = 0;
+    for (int i = 0; i < 5000; ++i) {
+      Vec2 u = rng.uniform2();
+      Vec2 back = invert_spherical_rectangle_sample(r, sample_spherical_rectangle(r, u));
+      far += std::fabs(back.x - u.x) > 2e-3f || std::fabs(back.y - u.y) > 2e-3f;
+    }
+    EXPECT_LE(far, 5) << "inverse round trips off by more than 2e-3";
+  }
+}
+
+// --- Projected spherical cap -----------------------------------------------------------
+
+// Omega_p = integral over the cap of max(0, n . w), by quadrature in the cap's
+// own (theta, phi) (double; the integrand is continuous).
+double quadrature_projected_cap(Vec3 axis, double sin2, Vec3 n, int nt = 800, int np = 1600) {
+  double cos_max = std::sqrt(1 - sin2), sum = 0;
+  Frame f = Frame::from_z(axis);
+  for (int i = 0; i < nt; ++i) {
+    double z = 1 - (1 - cos_max) * (i + 0.5) / nt;  // uniform in cos: d omega = dz dphi
+    double s = std::sqrt(std::max(0.0, 1 - z * z));
+    for (int j = 0; j < np; ++j) {
+      double phi = 2 * M_PI * (j + 0.5) / np;
+      Vec3 w = f.to_world(Vec3(float(s * std::cos(phi)), float(s * std::sin(phi)), float(z)));
+      sum += std::max(0.0, double(dot(w, n)));
+    }
+  }
+  return sum * (1 - cos_max) * 2 * M_PI / (double(nt) * np);
+}
+
+struct CapCase {
+  const char* name;
+  float sin2, beta_deg;
+  ProjectedCapMode mode;
+};
+
+class ProjectedCapSampling : public ::testing::TestWithParam<CapCase> {};
+
+TEST_P(ProjectedCapSampling, DensityIsCosineOverProjectedSolidAngle) {
+  const CapCase c = GetParam();
+  const Vec3 n(0, 0, 1);
+  const float b = c.beta_deg * kPi / 180.f;
+  const Vec3 axis = normalize(Vec3(std::sin(b) * 0.8f, std::sin(b) * 0.6f, std::cos(b)));
+  const ProjectedCap cap = make_projected_cap(axis, c.sin2, n);
+  ASSERT_EQ(int(cap.mode), int(c.mode));
+  const double omega_p = quadrature_projected_cap(axis, c.sin2, n);
+  // The density's normaliser is Omega_p, except in the rejection case (the
+  // disk segment's area, larger: some samples are rejected).
+  if (c.mode == ProjectedCapMode::Rejection) EXPECT_GT(cap.norm, omega_p * (1 - 1e-4));
+  else if (c.mode != ProjectedCapMode::Cone && c.mode != ProjectedCapMode::Empty)
+    EXPECT_NEAR(cap.norm, omega_p, 1e-4 * omega_p + 1e-7);
+  auto pdf = [&](Vec3 w) { return double(projected_cap_pdf(cap, w)); };
+  auto sample = [&](Vec2 u, Vec3* w) {
+    float p;
+    return sample_projected_cap(cap, u, w, &p);
+  };
+  const double cos_max = std::sqrt(1.0 - c.sin2);
+  if (c.sin2 > 1e-4) {
+    expect_matches_pdf(DirectionGrid(axis, cos_max, 16, 24), sample, pdf, 10);
+    const double mass = integrate_pdf(DirectionGrid(axis, cos_max, 16, 32), pdf, 16);
+    EXPECT_NEAR(mass, c.mode == ProjectedCapMode::Empty       ? 0.0
+                      : c.mode == ProjectedCapMode::Rejection ? omega_p / cap.norm
+                                                              : 1.0,
+                2e-3);
+  }
+  // Every sample: in the cap, above the horizon, its pdf that of pdf(); the
+  // estimate of Omega_p, cos / pdf, is exact (zero variance) where nothing is
+  // rejected.
+  Rng rng(11, 11, 11);
+  int rejected = 0, mismatched = 0;
+  for (int i = 0; i < 20000; ++i) {
+    Vec3 w;
+    float p;
+    if (!sample_projected_cap(cap, rng.uniform2(), &w, &p)) {
       ++rejected;
       continue;
     }
-    EXPECT_NEAR(length(s.y - l.p), r, 1e-5f * d);
-    if (-dot(normalize(s.y - l.p), s.wi) > 0.1f) {
-      EXPECT_NEAR(s.pdf, pdf(s.wi), 2e-3 * s.pdf);
-    }
+    ASSERT_GT(p, 0.f);
+    EXPECT_GT(dot(w, n), 0.f);
+    mismatched += std::fabs(pdf(w) - p) > 1e-4 * p;
+    if (c.mode != ProjectedCapMode::Cone && c.mode != ProjectedCapMode::Rejection)
+      EXPECT_NEAR(dot(w, n) / p, omega_p, 2e-3 * omega_p);
   }
-  // About half the sphere faces away and is rejected: (1 + r/d) / 2 of the samples.
-  EXPECT_NEAR(rejected / 4000.0, 0.5 * (1.0 + r / d), 0.03);
-  expect_matches_pdf(grid, direction_sampler(sample_light_area, l, x), pdf, 5);
-  // Only the visible cap counts: its share of the area is (1 - r/d) / 2.
-  DirectionGrid cone(l.p - x, cos_max, 16, 16);
-  EXPECT_NEAR(integrate_pdf(cone, pdf), 0.5 * (1.0 - r / d), 2e-3);
+  EXPECT_LE(mismatched, 2) << "pdf() differs from the sampled pdf";
+  if (c.mode == ProjectedCapMode::Rejection) EXPECT_NEAR(rejected / 20000.0, 1 - omega_p / cap.norm, 0.02);
+  else if (c.mode == ProjectedCapMode::Empty) EXPECT_EQ(rejected, 20000);
+  else EXPECT_EQ(rejected, 0);
 }
 
-TEST_P(SphereLightSampling, SolidAngleStrategyIsUniformInCone) {
-  const float r = 0.5f, d = GetParam() * r;
-  Light l = Light::sphere(Vec3(0.3f, -0.2f, 1.f), r, Vec3(1.f));
-  Vec3 x = l.p + normalize(Vec3(-0.6f, 0.2f, 0.5f)) * d;
-  double cos_max = cone_cos_max(x, l);
-  double one_minus = double(r) * r / (double(d) * d) / (1.0 + cos_max);  // 1 - cos, without cancellation
-  double p_cone = 1.0 / (2 * M_PI * one_minus);
-  auto pdf = [&](Vec3 w) { return dot(w, normalize(l.p - x)) >= cos_max ? p_cone : 0.0; };
-  Rng rng(8, 8, 8);
-  for (int i = 0; i < 2000; ++i) {
-    LightSample s = sample_light_solid_angle(l, x, rng.uniform2());
-    ASSERT_GT(s.pdf, 0.f);
-    EXPECT_NEAR(s.pdf, p_cone, 1e-3 * p_cone);
-    EXPECT_NEAR(length(s.y - l.p), r, 1e-4f * d);  // the point lies on the sphere
-    EXPECT_NEAR(length(normalize(s.y - x) - s.wi), 0.f, 1e-5f);
-    EXPECT_GT(dot(s.wi, normalize(l.p - x)), cos_max - 1e-6);
-  }
-  DirectionGrid grid(l.p - x, cos_max, 12, 16);
-  expect_matches_pdf(grid, direction_sampler(sample_light_solid_angle, l, x), pdf, 6);
-  if (GetParam() < 20.f) {  // the grid resolves the cone's edge
-    DirectionGrid cone(l.p - x, cos_max, 16, 16);
-    EXPECT_NEAR(integrate_pdf(cone, pdf), 1.0, 1e-3);
-  }
-}
-
-// d/r from touching-close to far enough for the Taylor branch (sin^2 < 6.9e-4).
-INSTANTIATE_TEST_SUITE_P(Distances, SphereLightSampling, ::testing::Values(1.05f, 2.f, 8.f, 60.f));
-
-TEST(LightSampling, QuadAreaStrategyMatchesJacobianPdf) {
-  Light l = Light::quad(Vec3(-0.5f, 1.f, -0.3f), Vec3(1.2f, 0, 0), Vec3(0, 0, 0.8f), Vec3(1.f));
-  // x on the emitting side (the side of n = e1 x e2 / |e1 x e2|).
-  Vec3 center = l.p + l.e1 * 0.5f + l.e2 * 0.5f;
-  Vec3 x = center + l.n * 0.7f + Vec3(0.4f, 0.f, 0.2f);
-  auto pdf = [&](Vec3 w) { return quad_area_pdf(x, l, w); };
-  Rng rng(7, 7, 7);
-  for (int i = 0; i < 2000; ++i) {
-    LightSample s = sample_light_area(l, x, rng.uniform2());
-    ASSERT_GT(s.pdf, 0.f);
-    EXPECT_NEAR(s.pdf, pdf(s.wi), 2e-3 * s.pdf);
-  }
-  // Distribution of the sampled points in the quad's (u, v) parameters against
-  // the ray-cast pdf carried to that domain: p(u, v) = p_w(w) |dw / du dv| with
-  // |dw / du dv| = |e1 x e2| cos_light / d^2.
-  const int n = 12;
-  std::vector<double> obs(n * n + 1, 0.0), exp(n * n + 1, 0.0);
-  const int res = 8;
-  for (int iv = 0; iv < n; ++iv)
-    for (int iu = 0; iu < n; ++iu)
-      for (int a = 0; a < res; ++a)
-        for (int b = 0; b < res; ++b) {
-          float u = (iu + (a + 0.5f) / res) / n, v = (iv + (b + 0.5f) / res) / n;
-          Vec3 y = l.p + l.e1 * u + l.e2 * v;
-          Vec3 w = normalize(y - x);
-          double jac = l.area * -dot(l.n, w) / length_sq(y - x);
-          exp[iv * n + iu] += pdf(w) * jac / (res * res * n * n) * kSamples;
-        }
-  Rng srng(10, 10, 10);
-  for (int i = 0; i < kSamples; ++i) {
-    LightSample s = sample_light_area(l, x, srng.uniform2());
-    if (!(s.pdf > 0.f)) {
-      obs.back() += 1;
-      continue;
-    }
-    Vec3 q = s.y - l.p;
-    double u = dot(q, l.e1) / length_sq(l.e1), v = dot(q, l.e2) / length_sq(l.e2);  // e1 is orthogonal to e2 here
-    obs[std::min(n - 1, int(v * n)) * n + std::min(n - 1, int(u * n))] += 1;
-  }
-  auto r = chi2_test(obs, exp);
-  EXPECT_GT(r.p_value, kMinP) << r.message;
-  double z_min = 1;
-  for (Vec3 c : {l.p, l.p + l.e1, l.p + l.e2, l.p + l.e1 + l.e2})
-    z_min = std::min(z_min, double(dot(normalize(c - x), normalize(center - x))));
-  EXPECT_NEAR(integrate_pdf(DirectionGrid(center - x, z_min - 0.05, 64, 96), pdf), 1.0, 3e-3);
-  // From behind, a one-sided quad offers nothing.
-  Vec3 behind = center - l.n * 0.5f;
-  for (int i = 0; i < 100; ++i) EXPECT_EQ(sample_light_area(l, behind, rng.uniform2()).pdf, 0.f);
-  // solid-angle falls back to area for quads.
-  Vec2 u(0.3f, 0.6f);
-  EXPECT_EQ(sample_light_solid_angle(l, x, u).pdf, sample_light_area(l, x, u).pdf);
-}
-
-TEST(LightSampling, InsideOrOnTheSphereGivesNoSampleAndNoNaN) {
-  Light l = Light::sphere(Vec3(0, 0, 0), 1.f, Vec3(1.f));
-  Rng rng(1, 2, 3);
-  for (Vec3 x : {Vec3(0, 0, 0), Vec3(0.5f, 0, 0), Vec3(1.f, 0, 0), Vec3(0, 0.99999f, 0)}) {
-    for (int i = 0; i < 1000; ++i) {
-      Vec2 u = rng.uniform2();
-      for (LightSample s : {sample_light_solid_angle(l, x, u), sample_light_area(l, x, u)}) {
-        EXPECT_FALSE(std::isnan(s.pdf));
-        if (s.pdf > 0.f) {  // only possible exactly on the surface, facing out
-          EXPECT_TRUE(is_finite(s.wi));
-        }
-      }
-    }
-  }
-}
+INSTANTIATE_TEST_SUITE_P(Modes, ProjectedCapSampling,
+                         ::testing::Values(CapCase{"ellipse_overhead", 0.25f, 0.f, ProjectedCapMode::Ellipse},
+                                           CapCase{"ellipse_tilted", 0.1f, 55.f, ProjectedCapMode::Ellipse},
+                                           CapCase{"ellipse_small", 2e-4f, 70.f, ProjectedCapMode::Ellipse},
+                                           CapCase{"crossing_high", 0.5f, 60.f, ProjectedCapMode::Crossing},
+                                           CapCase{"crossing_low", 0.2f, 85.f, ProjectedCapMode::Crossing},
+                                           CapCase{"crossing_wide", 0.95f, 30.f, ProjectedCapMode::Crossing},
+                                           CapCase{"rejection_horizon", 0.3f, 91.f, ProjectedCapMode::Rejection},
+                                           CapCase{"rejection_below", 0.4f, 110.f, ProjectedCapMode::Rejection},
+                                           CapCase{"cone_tiny", 4e-7f, 30.f, ProjectedCapMode::Cone},
+                                           CapCase{"empty", 0.1f, 120.f, ProjectedCapMode::Empty}),
+                         [](const ::testing::TestParamInfo<CapCase>& info) { return std::string(info.param.name); });
 
 TEST(Rng, DeterministicAndDecorrelated) {
   Rng a(5, 7, 11), b(5, 7, 11), c(5, 8, 11), d(6, 7, 11), e(5, 7, 12);

@@ -45,13 +45,14 @@ void expect_error(const json& doc, const std::string& field, const std::string& 
 const std::vector<std::string> kThesisScenes = {"cornell-sphere", "cornell-near", "occlusion"};
 
 TEST(Scene, BuiltinsParseAndHaveOneSphereLight) {
-  ASSERT_EQ(builtin_scenes().size(), 6u);
+  ASSERT_EQ(builtin_scenes().size(), 8u);
   for (const std::string& name : kThesisScenes) {
     const BuiltinScene* b = find_builtin(name);
     ASSERT_NE(b, nullptr) << name;
     Scene s = load_scene(b->name);
     EXPECT_EQ(s.lights.size(), 1u) << name;
     EXPECT_EQ(s.lights[0].type, LightType::Sphere) << name;
+    EXPECT_EQ(s.render.mis, Mis::None) << name << ": the thesis's estimator, so that chapter 4 is unchanged";
     EXPECT_EQ(s.render.width, 1920);
     EXPECT_EQ(s.render.height, 1080);
     EXPECT_GT(s.triangle_count(), 20u);
@@ -288,6 +289,53 @@ TEST(SceneFeatures, CoverWhatTheSceneUses) {
   j["models"] = {{{"file", std::string(PENUMBRA_TEST_DATA) + "/tiny_textured.obj"}}};
   const uint32_t obj = parse_scene(j, "test", ".").features();
   EXPECT_EQ(obj & (kFeatureShading | kFeatureTextures), uint32_t(kFeatureShading | kFeatureTextures));
+}
+
+// The light-sampling lab's scenes: a quad light, an emissive polygon; new
+// scenes take MIS by default.
+TEST(Scene, CornellQuadAndPolygonNear) {
+  Scene q = load_scene("cornell-quad");
+  ASSERT_EQ(q.lights.size(), 1u);
+  EXPECT_EQ(q.lights[0].type, LightType::Quad);
+  EXPECT_NEAR(q.lights[0].area, 1.30f * 1.05f, 1e-5f);
+  EXPECT_LT(q.lights[0].n.y, -0.999f) << "the ceiling light emits downwards";
+  EXPECT_EQ(q.render.mis, Mis::Power);
+  Scene p = load_scene("polygon-near");
+  ASSERT_EQ(p.lights.size(), 6u);
+  for (const Light& l : p.lights) {
+    EXPECT_EQ(l.type, LightType::Triangle);
+    EXPECT_GT(dot(l.n, normalize(Vec3(0.f, -0.6f, 0.8f))), 0.3f) << "faces the back wall and the floor";
+    EXPECT_LT(l.p.z, 5.592f);
+    EXPECT_GT(l.p.z, 5.592f - 1.f);
+  }
+  EXPECT_EQ(p.render.mis, Mis::Power);
+}
+
+// "defaults" and "$name": a scene's parameters, set with --set defaults.name=value.
+TEST(Scene, DefaultsParameterizeAScene) {
+  json doc = {{"defaults", {{"r", 0.3}}},
+              {"camera", {{"eye", {0, 0, 5}}, {"target", {0, 0, 0}}}},
+              {"materials", {{"m", {{"base_color", 0.5}, {"roughness", "$r"}}}}},
+              {"shapes", {{{"type", "sphere"}, {"center", {0, 0, 0}}, {"radius", "$r"}, {"material", "m"}}}}};
+  Scene s = parse_scene(doc, "params.json", ".");
+  EXPECT_FLOAT_EQ(s.spheres[0].radius, 0.3f);
+  EXPECT_FLOAT_EQ(s.materials[1].roughness, 0.3f);
+  std::vector<std::string> over = {"defaults.r=0.7"};
+  nlohmann::json d2 = doc;
+  apply_override(d2, over[0], "params.json");
+  EXPECT_FLOAT_EQ(parse_scene(d2, "params.json", ".").spheres[0].radius, 0.7f);
+  json bad = doc;
+  bad["shapes"][0]["radius"] = "$radius";
+  expect_error(bad, "shapes[0].radius", "unknown parameter '$radius'");
+  bad = doc;
+  bad["defaults"]["r"] = "$r";
+  expect_error(bad, "defaults.r", "cannot refer to another");
+  // The glossy scene's roughness.
+  const BuiltinScene* g = find_builtin("glossy");
+  ASSERT_NE(g, nullptr);
+  json gd = g->make();
+  ASSERT_TRUE(gd.contains("defaults"));
+  EXPECT_EQ(gd["materials"]["gold"]["roughness"], "$roughness");
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// `penumbra bench`: time every built-in scene with every strategy, one sample
+// `penumbra bench`: time every built-in scene with every strategy and MIS mode, one sample
 // per pixel per launch, and report the median and spread of the launch times as
 // a table and as JSON.
 //
@@ -23,6 +23,7 @@
 
 #include "apps/commands.h"
 #include "render/backend.h"
+#include "render/technique.h"
 #include "scene/scene.h"
 #if PN_HAVE_OPTIX
 #include "backends/optix/optix_backend.h"
@@ -39,7 +40,7 @@ using json = nlohmann::json;
 
 struct BenchArgs {
   std::string backend = "auto";
-  std::vector<std::string> scenes, strategies, sets;
+  std::vector<std::string> scenes, strategies, mis, sets;
   int width = 0, height = 0;  // 0: 1920x1080 on the GPU, 320x180 on the CPU
   int launches = 0;           // 0: 100 on the GPU, 10 on the CPU
   int warmup = -1;            // -1: 10 on the GPU, 1 on the CPU
@@ -111,7 +112,8 @@ std::vector<std::string> split_list(const std::vector<std::string>& items) {
 }
 
 struct Result {
-  std::string scene, strategy;
+  std::string scene, strategy;  // strategy: the technique's name ("area", "area+power")
+  std::string mis;
   Spread ms;             // per launch: trace + accumulate (GPU), wall (CPU)
   Spread trace_ms, accumulate_ms;
   double wall_ms_per_launch = 0;  // end-to-end, host clock, over the timed launches
@@ -138,6 +140,11 @@ int run_bench(const BenchArgs& a) {
   for (const std::string& s : split_list(a.strategies)) strategies.push_back(parse_strategy(s, "--strategies"));
   if (strategies.empty())
     for (int i = 0; i < kNumStrategies; ++i) strategies.push_back(Strategy(i));
+  std::vector<Mis> modes;
+  for (const std::string& m : split_list(a.mis)) modes.push_back(parse_mis(m, "--mis"));
+  if (modes.empty())
+    for (int i = 0; i < kNumMisModes; ++i) modes.push_back(Mis(i));
+  const std::vector<Technique> techniques = cross_techniques(strategies, modes);
   if (a.spp_per_launch < 1) throw std::runtime_error("--spp-per-launch must be at least 1");
 
   std::vector<Result> results;
@@ -205,14 +212,16 @@ int run_bench(const BenchArgs& a) {
       builds.push_back(b);
     }
 
-    for (Strategy strategy : strategies) {
+    for (const Technique& technique : techniques) {
       FrameSpec frame = frame_spec(scene);
-      frame.integrator.strategy = strategy;
+      frame.integrator.strategy = technique.strategy;
+      frame.integrator.mis = technique.mis;
       Film film(W, H);
       const double pixels = double(W) * double(H);
       Result r;
       r.scene = scene_name;
-      r.strategy = strategy_name(strategy);
+      r.strategy = technique_name(technique);
+      r.mis = mis_name(technique.mis);
       if (warmup > 0) backend->render(frame, film, 0, uint32_t(warmup * a.spp_per_launch));
       const uint32_t first = uint32_t(warmup * a.spp_per_launch);
       std::vector<double> total, trace, acc;
@@ -242,7 +251,7 @@ int run_bench(const BenchArgs& a) {
       r.accumulate_ms = spread(acc);
       r.msamples_per_s = r.ms.median > 0 ? pixels * a.spp_per_launch / (r.ms.median * 1e-3) * 1e-6 : 0;
       r.rays_per_s = (r.rays && gpu_ms > 0) ? double(r.rays) / (gpu_ms * 1e-3) : 0;
-      std::fprintf(stderr, "  %-16s %-12s %9.3f ms/launch (median of %zu)\n", r.scene.c_str(), r.strategy.c_str(),
+      std::fprintf(stderr, "  %-16s %-28s %9.3f ms/launch (median of %zu)\n", r.scene.c_str(), r.strategy.c_str(),
                    r.ms.median, total.size());
       results.push_back(r);
     }
@@ -252,7 +261,7 @@ int run_bench(const BenchArgs& a) {
   const bool gpu = backend_name != "cpu";
   std::printf("\npenumbra bench: %s (%s), %dx%d, %d spp/launch, max depth %d, median of %d launches after %d warm-up\n",
               backend_name.c_str(), device_name.c_str(), W, H, a.spp_per_launch, a.max_depth, launches, warmup);
-  std::printf("%-16s %-12s %9s %9s %9s %9s %9s %8s %8s %10s %9s %8s\n", "scene", "strategy", "ms/launch", "min",
+  std::printf("%-16s %-28s %9s %9s %9s %9s %9s %8s %8s %10s %9s %8s\n", "scene", "technique", "ms/launch", "min",
               "p10", "p90", "max", "trace", "accum", "Msamples/s", "Grays/s", "vs area");
   for (const Result& r : results) {
     double area_ms = 0;
@@ -267,7 +276,7 @@ int run_bench(const BenchArgs& a) {
       std::snprintf(trace, sizeof trace, "%.3f", r.trace_ms.median);
       std::snprintf(accum, sizeof accum, "%.3f", r.accumulate_ms.median);
     }
-    std::printf("%-16s %-12s %9.3f %9.3f %9.3f %9.3f %9.3f %8s %8s %10.2f %9s %8s\n", r.scene.c_str(),
+    std::printf("%-16s %-28s %9.3f %9.3f %9.3f %9.3f %9.3f %8s %8s %10.2f %9s %8s\n", r.scene.c_str(),
                 r.strategy.c_str(), r.ms.median, r.ms.min, r.ms.p10, r.ms.p90, r.ms.max, trace, accum,
                 r.msamples_per_s, rays, vs);
   }
@@ -316,6 +325,7 @@ int run_bench(const BenchArgs& a) {
     for (const Result& r : results) {
       json o = {{"scene", r.scene},
                 {"strategy", r.strategy},
+                {"mis", r.mis},
                 {"ms_per_launch", spread_json(r.ms)},
                 {"msamples_per_s", r.msamples_per_s},
                 {"wall_ms_per_launch", r.wall_ms_per_launch}};
@@ -376,6 +386,9 @@ Command add_bench_command(CLI::App& app) {
       ->check(CLI::IsMember({"cpu", "optix", "auto"}));
   sub->add_option("--scenes", a->scenes, "Scenes, comma-separated (default: every built-in scene)");
   sub->add_option("--strategies", a->strategies, "Strategies, comma-separated (default: " + strategy_names() + ")");
+  sub->add_option("--mis", a->mis,
+                  "MIS modes, comma-separated, each with every strategy that samples lights (default: " + mis_names() +
+                      ")");
   sub->add_option("--width", a->width, "Image width (default: 1920 on the GPU, 320 on the CPU)")
       ->check(CLI::Range(1, 16384));
   sub->add_option("--height", a->height, "Image height (default: 1080 on the GPU, 180 on the CPU)")

@@ -26,6 +26,7 @@
 #include "io/npy.h"
 #include "render/backend.h"
 #include "render/metrics.h"
+#include "render/technique.h"
 #include "scene/scene.h"
 
 #ifndef PENUMBRA_GIT_COMMIT
@@ -38,8 +39,9 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 struct ConvergeArgs {
-  std::string scene, out, cache, backend = "auto", reference_strategy = "solid-angle";
+  std::string scene, out, cache, backend = "auto", reference_strategy = "solid-angle", reference_mis = "power";
   std::vector<std::string> strategies = {"area", "solid-angle"};
+  std::vector<std::string> mis = {"none"};
   std::vector<std::string> sets;
   int width = 0, height = 0, max_spp = 1024, seeds = 4, reference_spp = 65536, crop_spp = 32, fit_min_spp = 4;
   int threads = 0;
@@ -110,9 +112,13 @@ int run_converge(const ConvergeArgs& a) {
   json doc = load_scene_json(a.scene, overrides, &source);
   Scene scene = load_scene(a.scene, overrides);
   const int W = scene.render.width, H = scene.render.height;
-  std::vector<Strategy> strategies;
-  for (const auto& s : a.strategies) strategies.push_back(parse_strategy(s, "--strategies"));
-  Strategy ref_strategy = parse_strategy(a.reference_strategy, "--reference-strategy");
+  std::vector<Strategy> strategy_list;
+  for (const auto& s : a.strategies) strategy_list.push_back(parse_strategy(s, "--strategies"));
+  std::vector<Mis> modes;
+  for (const auto& m : a.mis) modes.push_back(parse_mis(m, "--mis"));
+  const std::vector<Technique> techniques = cross_techniques(strategy_list, modes);
+  const Technique ref_technique{parse_strategy(a.reference_strategy, "--reference-strategy"),
+                                parse_mis(a.reference_mis, "--reference-mis")};
   if (a.max_spp < 1 || a.seeds < 1 || a.reference_spp < 1 || a.crop_spp < 1)
     throw std::runtime_error("converge: --max-spp, --seeds, --reference-spp and --crop-spp must be >= 1");
   std::vector<int> crop = a.crop.empty() ? auto_crop(scene) : a.crop;
@@ -140,9 +146,10 @@ int run_converge(const ConvergeArgs& a) {
   json key_doc = doc;
   key_doc["render"].erase("spp");
   key_doc["render"].erase("strategy");
+  key_doc["render"].erase("mis");
   key_doc["render"].erase("seed");
   std::ostringstream key;
-  key << std::hex << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + strategy_name(ref_strategy));
+  key << std::hex << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(ref_technique));
   std::string ref_path = cache + "/ref-" + key.str() + ".exr";
   std::string ref_var_path = cache + "/ref-" + key.str() + "_var.exr";
   std::vector<float> ref, ref_var;
@@ -157,7 +164,8 @@ int run_converge(const ConvergeArgs& a) {
     std::fprintf(stderr, "reference: %s (cached)\n", ref_path.c_str());
   } else {
     FrameSpec f = frame_spec(scene);
-    f.integrator.strategy = ref_strategy;
+    f.integrator.strategy = ref_technique.strategy;
+    f.integrator.mis = ref_technique.mis;
     f.seed = kRefSeed;
     Film film(W, H);
     ProgressBar bar("reference " + std::to_string(a.reference_spp) + " spp");
@@ -223,7 +231,7 @@ int run_converge(const ConvergeArgs& a) {
   summary["height"] = H;
   summary["max_depth"] = scene.render.max_depth;
   summary["overrides"] = a.sets;
-  summary["reference"] = {{"spp", a.reference_spp}, {"strategy", strategy_name(ref_strategy)}, {"file", ref_path},
+  summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)}, {"file", ref_path},
                           {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed},
                           {"rmse_floor", floor_all}, {"rmse_floor_nolight", floor_nolight}};
   summary["git_commit"] = PENUMBRA_GIT_COMMIT;  // of the binary that made the runs
@@ -245,10 +253,12 @@ int run_converge(const ConvergeArgs& a) {
   uint64_t per_strategy = 0;
   for (int s : spps) per_strategy += uint64_t(s) * a.seeds;
   ProgressBar bar("converging");
-  uint64_t done_spp = 0, total_spp = per_strategy * strategies.size();
-  for (Strategy st : strategies) {
+  uint64_t done_spp = 0, total_spp = per_strategy * techniques.size();
+  for (const Technique& tq : techniques) {
+    const std::string name = technique_name(tq);
     FrameSpec f = frame_spec(scene);
-    f.integrator.strategy = st;
+    f.integrator.strategy = tq.strategy;
+    f.integrator.mis = tq.mis;
     std::vector<double> lx, ly, lyn;
     json points = json::array();
     double ms_per_spp = 0;
@@ -260,7 +270,7 @@ int run_converge(const ConvergeArgs& a) {
         double t = timed_render(*backend, f, film, 0, uint32_t(spp));
         auto img = film.mean();
         ErrorMetrics all = error_metrics(img, ref), nolight = error_metrics(img, ref, &mask);
-        csv << a.scene << "," << strategy_name(st) << "," << spp << "," << seed << "," << t << "," << all.rmse << ","
+        csv << a.scene << "," << name << "," << spp << "," << seed << "," << t << "," << all.rmse << ","
             << nolight.rmse << "," << all.relmse << "," << nolight.relmse << "\n";
         rm += all.rmse / a.seeds;
         rmn += nolight.rmse / a.seeds;
@@ -270,8 +280,8 @@ int run_converge(const ConvergeArgs& a) {
         done_spp += spp;
         bar.update(done_spp, total_spp);
         if (spp == a.crop_spp && seed == 1) {
-          write_crop(out + "/crop_" + strategy_name(st) + ".npy", img, W, crop);
-          write_image(out + "/image_" + std::string(strategy_name(st)) + "_" + std::to_string(spp) + "spp.png", W, H, img);
+          write_crop(out + "/crop_" + name + ".npy", img, W, crop);
+          write_image(out + "/image_" + name + "_" + std::to_string(spp) + "spp.png", W, H, img);
         }
       }
       points.push_back({{"spp", spp}, {"rmse", rm}, {"rmse_nolight", rmn}, {"relmse", rel}, {"relmse_nolight", reln},
@@ -283,7 +293,8 @@ int run_converge(const ConvergeArgs& a) {
       }
       ms_per_spp = ms / spp;  // from the largest spp: launch overheads amortised
     }
-    json js = {{"points", points}, {"ms_per_spp", ms_per_spp}};
+    json js = {{"points", points}, {"ms_per_spp", ms_per_spp}, {"strategy", strategy_name(tq.strategy)},
+               {"mis", mis_name(tq.mis)}};
     auto fit_json = [&](const std::vector<double>& y, const char* name) {
       if (lx.size() < 2) return;
       LineFit fit = fit_line(lx, y);
@@ -300,18 +311,19 @@ int run_converge(const ConvergeArgs& a) {
     double secs = last["time_ms"].get<double>() * 1e-3;
     js["efficiency"] = mse > 0 && secs > 0 ? 1.0 / (mse * secs) : 0.0;
     js["efficiency_nolight"] = mse_n > 0 && secs > 0 ? 1.0 / (mse_n * secs) : 0.0;
-    summary["strategies"][strategy_name(st)] = js;
+    summary["strategies"][name] = js;
   }
   double secs = bar.finish();
   summary["seconds"] = secs;
   std::ofstream(out + "/summary.json") << summary.dump(2) << "\n";
 
   // One line per strategy: what a person wants to know first.
-  for (Strategy st : strategies) {
-    const json& js = summary["strategies"][strategy_name(st)];
+  for (const Technique& tq : techniques) {
+    const std::string name = technique_name(tq);
+    const json& js = summary["strategies"][name];
     if (!js.contains("fit_rmse")) continue;
-    std::fprintf(stderr, "%-12s slope %.3f (no-light %.3f), %.3f ms/spp, RMSE %.3g reached in %.3g spp = %.4g ms\n",
-                 strategy_name(st), js["fit_rmse"]["slope"].get<double>(), js["fit_rmse_nolight"]["slope"].get<double>(),
+    std::fprintf(stderr, "%-28s slope %.3f (no-light %.3f), %.3f ms/spp, RMSE %.3g reached in %.3g spp = %.4g ms\n",
+                 name.c_str(), js["fit_rmse"]["slope"].get<double>(), js["fit_rmse_nolight"]["slope"].get<double>(),
                  js["ms_per_spp"].get<double>(), a.threshold, js["fit_rmse"]["spp_to_threshold"].get<double>(),
                  js["fit_rmse"]["ms_to_threshold"].get<double>());
   }
@@ -330,10 +342,16 @@ Command add_converge_command(CLI::App& app) {
   sub->add_option("scene", a->scene, "Built-in scene name or scene file")->required();
   sub->add_option("--out", a->out, "Output folder (default: converge-<scene>)");
   sub->add_option("--strategies", a->strategies, "Strategies to compare")->delimiter(',')->capture_default_str();
+  sub->add_option("--mis", a->mis,
+                  "MIS modes, each with every strategy that samples lights (" + mis_names() +
+                      "); a technique is named 'area' (MIS none) or 'area+power'")
+      ->delimiter(',')
+      ->capture_default_str();
   sub->add_option("--max-spp", a->max_spp, "Largest spp (renders at 1, 2, 4, ... up to it)")->capture_default_str();
   sub->add_option("--seeds", a->seeds, "Independent renders per point")->capture_default_str();
   sub->add_option("--reference-spp", a->reference_spp, "Samples per pixel of the ground truth")->capture_default_str();
   sub->add_option("--reference-strategy", a->reference_strategy, "Strategy of the ground truth")->capture_default_str();
+  sub->add_option("--reference-mis", a->reference_mis, "MIS mode of the ground truth")->capture_default_str();
   sub->add_option("--cache", a->cache, "Folder for cached ground truths (default: $XDG_CACHE_HOME/penumbra or ~/.cache/penumbra)");
   sub->add_option("--width", a->width, "Image width (default: the scene's)");
   sub->add_option("--height", a->height, "Image height (default: the scene's)");

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/options.h"
 #include "apps/progress.h"
 #include "io/image.h"
 #include "render/backend.h"
@@ -21,7 +22,7 @@ struct RenderArgs {
   std::string output;
   std::string variance;
   std::string backend = "auto";
-  std::string strategy;
+  IntegratorOptions integrator;
   // kUnset: not given on the command line, keep the scene's value.
   static constexpr long long kUnset = std::numeric_limits<long long>::min();
   long long spp = kUnset, width = kUnset, height = kUnset, max_depth = kUnset, rr_depth = kUnset, seed = kUnset;
@@ -65,7 +66,7 @@ int run_render(const RenderArgs& a) {
   // Command-line settings are overrides like any --set, validated in one place.
   std::vector<std::string> overrides = a.sets;
   auto set = [&](const char* key, const std::string& v) { overrides.push_back(std::string(key) + "=" + v); };
-  if (!a.strategy.empty()) set("render.strategy", "\"" + a.strategy + "\"");
+  append_integrator_overrides(a.integrator, &overrides);
   auto set_int = [&](const char* key, long long v) {
     if (v != RenderArgs::kUnset) set(key, std::to_string(v));
   };
@@ -88,8 +89,8 @@ int run_render(const RenderArgs& a) {
   std::fprintf(stderr, "%s\n", note.c_str());
 
   const RenderSettings& r = scene.render;
-  std::fprintf(stderr, "%s: %dx%d, %d spp, strategy %s, max depth %d, seed %u\n", scene.source.c_str(), r.width,
-               r.height, r.spp, strategy_name(r.strategy), r.max_depth, r.seed);
+  std::fprintf(stderr, "%s: %dx%d, %d spp, strategy %s, MIS %s, max depth %d, seed %u\n", scene.source.c_str(),
+               r.width, r.height, r.spp, strategy_name(r.strategy), mis_name(r.mis), r.max_depth, r.seed);
   Film film(r.width, r.height);
   ProgressBar bar("rendering");
   backend->render(frame_spec(scene), film, 0, uint32_t(r.spp),
@@ -117,7 +118,7 @@ Command add_render_command(CLI::App& app) {
   auto* sub = app.add_subcommand("render", "Render a scene to an image file (.exr linear float, .png sRGB)");
   sub->add_option("scene", a->scene, "Built-in scene name (see `penumbra scenes`) or a scene file (.json)")->required();
   sub->add_option("-o,--output", a->output, "Output image, .exr or .png (default: <scene>.png)");
-  sub->add_option("--strategy", a->strategy, "Direct-lighting strategy: " + strategy_names() + " (default: the scene's)");
+  add_integrator_options(sub, &a->integrator);
   sub->add_option("--spp", a->spp, "Samples per pixel (default: the scene's)");
   sub->add_option("--width", a->width, "Image width in pixels (default: the scene's)");
   sub->add_option("--height", a->height, "Image height in pixels (default: the scene's)");

@@ -8,22 +8,29 @@
 // turned into a shading point here, by core/scene_view.h, for both.
 //
 // Estimator. A path x0 (camera) -> x1 -> x2 ... carries throughput
-//     beta_k = prod_{j<k} f(x_j) |cos theta_j| / p(w_j)
-// and at every vertex x_k (k <= max_depth) next-event estimation adds
-//     beta_k * f(x_k) * L_e(y) * |cos theta_k| / (p_light(w) * P(choose light))
-// for one light, chosen in proportion to its power, and one direction w drawn
-// by the chosen strategy, if the shadow ray to y is clear. Emission hit by a
-// path (lights, emissive triangles, the environment) is added only where NEE
-// did not already count it: on camera rays, and on every vertex in the `bsdf`
-// strategy. Russian roulette from vertex rr_depth on keeps the estimator
-// unbiased (beta /= survival prob).
+//     beta_k = prod_{j<k} f(x_j) |cos theta_j| / p_bsdf(w_j)
+// and at every vertex x_k (k <= max_depth) next-event estimation adds, for one
+// light chosen with probability P(light | x_k) and one direction w drawn from it
+// by the strategy with solid-angle density p_light(w),
+//     beta_k * f(x_k, w) * L_e * cos theta / (P(light) p_light(w)) * w_light
+// if the shadow ray is clear. Emission that a BSDF-sampled ray finds (a light's
+// surface, an emissive triangle, the environment) adds beta_k * L_e * w_bsdf.
+// The weights (core/strategy.h, mis_weight):
+//   --mis none:   w_light = 1; w_bsdf = 1 where no light sampling happened
+//                 (camera rays, the bsdf strategy), else 0: each light path is
+//                 counted once, by light sampling (the thesis's estimator);
+//   --mis balance|power: w_light = h(P p_light, p_bsdf), w_bsdf = h(p_bsdf,
+//                 P p_light), both densities of the same direction at the same
+//                 vertex, so that the weights sum to 1 wherever both techniques
+//                 can produce it (Veach & Guibas 1995).
+// Russian roulette from vertex rr_depth on keeps the estimator unbiased
+// (beta /= survival probability).
 #pragma once
 
 #include "camera.h"
 #include "common.h"
-#include "environment.h"
 #include "geometry.h"
-#include "lights.h"
+#include "light_sampler.h"
 #include "material.h"
 #include "rng.h"
 #include "scene_view.h"
@@ -34,76 +41,93 @@ namespace pn {
 
 struct IntegratorSettings {
   Strategy strategy = Strategy::SolidAngle;
+  Mis mis = Mis::Power;
+  LightSelection light_selection = LightSelection::Power;
   int max_depth = 8;  // maximum number of scattering vertices on a path
   int rr_depth = 5;   // Russian roulette from this vertex on
 };
 
-// Radiance arriving at x from the lights along one strategy-sampled direction,
-// weighted by f * cos / pdf. Shared by the path loop and the direct-lighting tests.
+// Next-event estimation at a shading point: radiance from one light sample,
+// f * L * cos / (P(light) p_light) times its MIS weight. Shared by the path
+// loop and the direct-lighting tests.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
-PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, Strategy strategy,
+PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s,
                            const Bsdf& bsdf, Vec3 p, Vec3 wo, float u_select, Vec2 u) {
   constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
-  if (scene.num_lights == 0) return Vec3(0.f);
-  float select_pdf;
-  const Light& light = scene.lights[select_light(scene, u_select, &select_pdf)];
-  LightSample ls;
-  if ((kFeatures & kFeatureEnvironment) && light.type == LightType::Environment) {
-    // Not a subject of the comparison: every strategy samples the environment's image.
-    EnvironmentSample es = environment_sample(scene.environment, u);
-    ls.wi = es.wi;
-    ls.L = es.L;
-    ls.pdf = es.pdf;
-    ls.infinite = true;
-  } else {
-    ls = sample_light(strategy, light, p, u);
-  }
+  const LightSampleContext ctx{p, bsdf.frame.n};
+  const SelectedLight sel = select_light(scene.selection, scene.num_lights, s.light_selection, ctx, u_select);
+  if (!(sel.pmf > 0.f)) return Vec3(0.f);
+  const Light& light = scene.lights[sel.index];
+  const LightSample ls = sample_light<kFeatures>(scene, s.strategy, light, ctx, u);
   if (!(ls.pdf > 0.f)) return Vec3(0.f);
-  Vec3 f = bsdf_eval<kSpecular>(bsdf, wo, ls.wi);
+  const Vec3 f = bsdf_eval<kSpecular>(bsdf, wo, ls.wi);
   if (is_black(f)) return Vec3(0.f);
-  const float cos_theta = dot(bsdf.frame.n, ls.wi);
   // The shadow ray leaves on the side of the geometric surface wi points to
   // (bsdf_eval is 0 otherwise) and runs to the sampled point itself, so that
   // the offset can never carry it past the light's surface.
-  Vec3 o = offset_ray_origin(p, bsdf.ng);
+  const Vec3 o = offset_ray_origin(p, bsdf.ng);
   if (ls.infinite) {
     if (tracer.occluded(Ray(o, ls.wi), kInf)) return Vec3(0.f);
   } else {
-    Vec3 to_light = ls.y - o;
-    float dist = length(to_light);
+    const Vec3 to_light = ls.y - o;
+    const float dist = length(to_light);
     if (tracer.occluded(Ray(o, to_light / dist), dist * (1.f - kShadowEpsilon))) return Vec3(0.f);
   }
-  Vec3 L = ls.L;
-  if ((kFeatures & kFeatureTextures) && light.type == LightType::Triangle && light.emission_tex >= 0)
-    L = L * texture_lookup(scene.textures[light.emission_tex],
-                           lerp_uv(light.uv0, light.uv1, light.uv2, ls.b.x, ls.b.y)).rgb;
-  return f * L * (cos_theta / (ls.pdf * select_pdf));
+  const float p_light = ls.pdf * sel.pmf;
+  const float w = s.mis == Mis::None ? 1.f : mis_weight(s.mis, p_light, bsdf_pdf<kSpecular>(bsdf, wo, ls.wi));
+  return f * ls.L * (dot(bsdf.frame.n, ls.wi) * w / p_light);
 }
 
-// Radiance of a ray that leaves the scene.
+// Convenience for tests: a strategy with the default MIS and selection off.
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
+PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, Strategy strategy, const Bsdf& bsdf, Vec3 p,
+                           Vec3 wo, float u_select, Vec2 u) {
+  IntegratorSettings s;
+  s.strategy = strategy;
+  s.mis = Mis::None;
+  return estimate_direct<kFeatures>(tracer, scene, s, bsdf, p, wo, u_select, u);
+}
+
+// The vertex a BSDF-sampled ray left from: what the MIS weight of emission it
+// finds needs to know (the density NEE would have had for that direction).
+struct PrevVertex {
+  LightSampleContext ctx;
+  float bsdf_pdf = 0.f;
+};
+
+// The weight of emission from light `index` found along direction w by a
+// BSDF-sampled ray (depth > 0, NEE on, MIS on).
 template <uint32_t kFeatures = kAllFeatures>
-PN_FN Vec3 escaped_radiance(const SceneView& scene, Vec3 d) {
-  if ((kFeatures & kFeatureEnvironment) && scene.environment.present()) return environment_radiance(scene.environment, d);
-  return scene.background;
+PN_FN float bsdf_emission_weight(const SceneView& scene, const IntegratorSettings& s, const PrevVertex& prev,
+                                 uint32_t index, Vec3 w) {
+  const float p_light = selection_pmf(scene.selection, scene.num_lights, s.light_selection, prev.ctx, index) *
+                        light_pdf<kFeatures>(scene, s.strategy, scene.lights[index], prev.ctx, w);
+  return mis_weight(s.mis, prev.bsdf_pdf, p_light);
 }
 
 // One path sample along `ray`; returns its radiance estimate. kFeatures must
 // cover the scene's features (SceneFeature); fewer compile to less code.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
-PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s,
-                      Ray ray, Rng& rng) {
+PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s, Ray ray, Rng& rng) {
   const bool nee = strategy_uses_nee(s.strategy);
+  const bool mis = nee && s.mis != Mis::None;
   Vec3 L(0.f), beta(1.f);
+  PrevVertex prev;
   for (int depth = 0;; ++depth) {
     HitRecord rec;
     if (!tracer.intersect(ray, kInf, &rec)) {
-      if (depth == 0 || !nee || scene.environment_light < 0) L += beta * escaped_radiance<kFeatures>(scene, ray.d);
+      const Vec3 Le = escaped_radiance<kFeatures>(scene, ray.d);
+      if (depth == 0 || !nee || scene.environment_light < 0) L += beta * Le;
+      else if (mis) L += beta * Le * bsdf_emission_weight<kFeatures>(scene, s, prev, uint32_t(scene.environment_light), ray.d);
       break;
     }
     const SurfaceHit hit = resolve_hit<kFeatures>(scene, ray, rec);
-    const bool front = dot(hit.n, ray.d) < 0.f;
-    // Emission, unless NEE already accounted for this light at the previous vertex.
-    if (hit.light >= 0 && front && (depth == 0 || !nee)) L += beta * surface_emission<kFeatures>(scene, hit);
+    // Emission, from the front of an emitting surface.
+    if (hit.light >= 0 && dot(hit.n, ray.d) < 0.f) {
+      const Vec3 Le = light_emission<kFeatures>(scene, scene.lights[hit.light], hit.uv);
+      if (depth == 0 || !nee) L += beta * Le;
+      else if (mis) L += beta * Le * bsdf_emission_weight<kFeatures>(scene, s, prev, uint32_t(hit.light), ray.d);
+    }
     if (depth == s.max_depth) break;
 
     const Vec3 wo = -ray.d;
@@ -114,7 +138,7 @@ PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const Integr
     if (nee) {
       float u_select = rng.uniform();
       Vec2 u_light = rng.uniform2();
-      L += beta * estimate_direct<kFeatures>(tracer, scene, s.strategy, bsdf, hit.p, wo, u_select, u_light);
+      L += beta * estimate_direct<kFeatures>(tracer, scene, s, bsdf, hit.p, wo, u_select, u_light);
     }
 
     // Continue the path by sampling the BSDF.
@@ -122,6 +146,8 @@ PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const Integr
     BsdfSample bs = bsdf_sample<(kFeatures & kFeatureSpecular) != 0>(bsdf, wo, u_lobe, rng.uniform2());
     if (!(bs.pdf > 0.f)) break;
     beta *= bs.weight;
+    prev.ctx = LightSampleContext{hit.p, bsdf.frame.n};
+    prev.bsdf_pdf = bs.pdf;
 
     // Russian roulette.
     if (depth + 1 >= s.rr_depth) {
@@ -138,8 +164,7 @@ PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const Integr
 // position in the pixel (box filter), one path.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 render_sample(const Tracer& tracer, const SceneView& scene, const Camera& camera,
-                         const IntegratorSettings& s, int px, int py, uint32_t sample_index,
-                         uint32_t seed) {
+                         const IntegratorSettings& s, int px, int py, uint32_t sample_index, uint32_t seed) {
   Rng rng(uint32_t(py) * uint32_t(camera.width) + uint32_t(px), sample_index, seed);
   Vec2 j = rng.uniform2();
   Ray ray = camera.generate_ray(float(px) + j.x, float(py) + j.y);

@@ -1,16 +1,17 @@
-// Area lights and the light-sampling strategies that penumbra compares.
+// Lights: their geometry, what a light sample is, and the geometric helpers
+// every sampling strategy shares (core/light_strategies.h holds the strategies).
 //
 // Measure convention: every LightSample carries its pdf PER UNIT SOLID ANGLE at
-// the shading point. Strategies that pick points on a surface convert with the
-// area-to-solid-angle Jacobian in one place, area_to_solid_angle() below.
+// the shading point, and every strategy's pdf() answers in solid angle too.
+// Strategies that pick points on a surface convert with the area-to-solid-angle
+// Jacobian in one place, area_to_solid_angle() below.
 //
-// A light emits radiance L from its OUTER side only: a sphere outwards, a quad or
-// a triangle on the side of its normal n = normalize(e1 x e2). L is constant,
-// except on a triangle of an emissive mesh with an emission texture, where the
-// texture (looked up by the integrator at the sampled point) multiplies it.
-// The environment is a light too (type Environment), sampled by
-// core/environment.h whatever the strategy: the strategies compare ways of
-// sampling lights with a surface.
+// A light emits radiance from its OUTER side only: a sphere outwards, a quad or
+// a triangle on the side of its unit normal n (for a quad n = normalize(e1 x e2);
+// for an emissive triangle the side its winding makes front, which a mirroring
+// instance transform flips). Radiance is constant over a light, except on a
+// triangle with an emission texture; core/light_sampler.h evaluates emission
+// (light_emission) in one place for samples and for hits alike.
 #pragma once
 
 #include "common.h"
@@ -24,7 +25,7 @@ enum class LightType : uint32_t { Sphere = 0, Quad = 1, Triangle = 2, Environmen
 
 struct Light {
   LightType type = LightType::Sphere;
-  Vec3 radiance;  // L, constant over the surface
+  Vec3 radiance;  // L, constant over the surface (environment: its intensity scale)
   Vec3 p;         // sphere: centre; quad: corner; triangle: vertex 0
   float radius = 0.f;  // sphere only
   Vec3 e1, e2;    // quad and triangle: edges from p
@@ -69,12 +70,20 @@ struct Light {
   }
 };
 
+// Where a light is sampled from: the shading point and its unit shading normal
+// (on the side the light is sampled for). Area and solid-angle sampling use
+// only p; projected-solid-angle sampling weights directions by max(0, n . w).
+struct LightSampleContext {
+  Vec3 p;
+  Vec3 n;
+};
+
 // A direction towards a light, with what is needed to evaluate and shadow-test it.
 struct LightSample {
   Vec3 wi;          // unit direction from the shading point towards the light
   Vec3 y;           // the sampled point on the light (the shadow ray's target)
   float dist = 0.f; // distance to y
-  Vec3 L;           // radiance arriving along wi (if unoccluded)
+  Vec3 L;           // radiance arriving along wi (if unoccluded); light_sampler.h fills it
   float pdf = 0.f;  // solid-angle density of wi; 0 means "no sample"
   Vec2 b;           // triangle lights: barycentrics (b1, b2) of y, for textured emission
   bool infinite = false;  // environment: y is at infinity, the shadow ray is unbounded
@@ -83,7 +92,7 @@ struct LightSample {
 // Converts a density over the light's area at point y (normal ny) into a density
 // over directions at x:  p_w = p_A * d^2 / |cos theta_light|. A point whose
 // emitting side faces away from x contributes nothing and yields pdf 0.
-PN_FN LightSample area_to_solid_angle(Vec3 x, Vec3 y, Vec3 ny, float pdf_area, Vec3 radiance) {
+PN_FN LightSample area_to_solid_angle(Vec3 x, Vec3 y, Vec3 ny, float pdf_area) {
   LightSample s;
   Vec3 d = y - x;
   float dist2 = dot(d, d);
@@ -95,81 +104,81 @@ PN_FN LightSample area_to_solid_angle(Vec3 x, Vec3 y, Vec3 ny, float pdf_area, V
   s.wi = wi;
   s.y = y;
   s.dist = dist;
-  s.L = radiance;
   s.pdf = pdf_area * dist2 / cos_light;
   return s;
 }
-
-// --- Strategy A: uniform area sampling ----------------------------------------
-// Sphere: y uniform over the whole sphere, p_A = 1 / (4 pi r^2); about half of the
-// samples land on the far side and are wasted. Quad and triangle: y uniform,
-// p_A = 1 / A. (Emissive meshes are many triangle lights: every strategy samples
-// them this way.)
-PN_FN LightSample sample_light_area(const Light& light, Vec3 x, Vec2 u) {
-  if (light.type == LightType::Sphere) {
-    Vec3 n = sample_uniform_sphere(u);
-    Vec3 y = light.p + n * light.radius;
-    return area_to_solid_angle(x, y, n, 1.f / light.area, light.radiance);
-  }
-  if (light.type == LightType::Triangle) {
-    Vec2 b = sample_uniform_triangle(u);
-    Vec3 y = light.p + light.e1 * b.x + light.e2 * b.y;
-    LightSample s = area_to_solid_angle(x, y, light.n, 1.f / light.area, light.radiance);
-    s.b = b;
-    return s;
-  }
-  Vec3 y = sample_uniform_parallelogram(u, light.p, light.e1, light.e2);
-  return area_to_solid_angle(x, y, light.n, 1.f / light.area, light.radiance);
+// The same Jacobian for a direction wi that meets the light at distance t.
+PN_FN float area_pdf_to_solid_angle(float pdf_area, float t, Vec3 ny, Vec3 wi) {
+  float cos_light = -dot(ny, wi);
+  return cos_light > 0.f ? pdf_area * t * t / cos_light : 0.f;
 }
 
-// --- Strategy B: uniform sampling of the subtended cone (spheres) -------------
-// sin theta_max = r / d, p_w = 1 / (2 pi (1 - cos theta_max)) over the cone, so
-// the estimator L cos / p_w has no 1/d^2 term and never misses the light.
-// For tiny cones (sin^2 theta_max below sin^2 1.5 deg) 1 - cos theta_max is
-// computed from its Taylor series r^2/(2 d^2) to avoid cancellation. The sampled
-// point on the sphere is computed from the angle alpha at the centre, which is
-// exact where intersecting the sampled ray with the sphere would lose precision
-// (pbrt-v4, Sphere::Sample; Wang 1992). A shading point inside or on the sphere
-// sees only its non-emitting inner side: the area strategy handles it (giving
-// pdf 0 for every sample) so no NaN arises from sqrt(1 - r^2/d^2).
-PN_FN LightSample sample_light_solid_angle(const Light& light, Vec3 x, Vec2 u) {
-  if (light.type != LightType::Sphere) return sample_light_area(light, x, u);
-  Vec3 to_center = light.p - x;
-  float dc2 = dot(to_center, to_center);
-  float r2 = light.radius * light.radius;
-  if (dc2 <= r2 * 1.00001f) return sample_light_area(light, x, u);
-  float dc = std::sqrt(dc2);
-  float sin2_max = r2 / dc2;
-  float sin_max = std::sqrt(sin2_max);
-  float cos_max = safe_sqrt(1.f - sin2_max);
-  float one_minus_cos_max = 1.f - cos_max;
-  float cos_theta = (cos_max - 1.f) * u.x + 1.f;
-  float sin2_theta = 1.f - cos_theta * cos_theta;
-  if (sin2_max < 0.00068523f) {  // sin^2(1.5 deg): Taylor branch
-    sin2_theta = sin2_max * u.x;
-    cos_theta = std::sqrt(1.f - sin2_theta);
-    one_minus_cos_max = sin2_max * 0.5f;
+// --- Where a direction meets a light (for pdfs of given directions) --------------
+
+// Distance along unit w from x to the sphere's near side; the discriminant is
+// clamped at 0, so a direction that grazes the sphere within rounding still
+// gets the tangent point. False when w misses by more or x is inside.
+PN_FN bool sphere_light_distance(const Light& l, Vec3 x, Vec3 w, float* t, bool clamp_grazing) {
+  const Vec3 f = x - l.p;
+  const float r2 = l.radius * l.radius;
+  const float c = dot(f, f) - r2;
+  if (!(c > 0.f)) return false;
+  const float b = dot(f, w);
+  if (b >= 0.f) return false;  // the sphere is behind x
+  const Vec3 perp = f - w * b;
+  float disc = r2 - dot(perp, perp);
+  if (disc < 0.f) {
+    if (!clamp_grazing || disc < -1e-4f * r2) return false;
+    disc = 0.f;
   }
-  // Angle alpha between -to_center and the normal at the sampled point.
-  float cos_alpha = sin2_theta / sin_max + cos_theta * safe_sqrt(1.f - sin2_theta / sin2_max);
-  float sin_alpha = safe_sqrt(1.f - cos_alpha * cos_alpha);
-  float phi = kTwoPi * u.y;
-  Frame frame = Frame::from_z(to_center / dc);
-  Vec3 n_local(std::cos(phi) * sin_alpha, std::sin(phi) * sin_alpha, cos_alpha);
-  Vec3 ny = -frame.to_world(n_local);  // outward normal at the sampled point
-  Vec3 y = light.p + ny * light.radius;
-  LightSample s;
-  Vec3 d = y - x;
-  s.dist = length(d);
-  if (!(s.dist > 0.f)) return s;
-  s.y = y;
-  s.wi = d / s.dist;
-  s.L = light.radiance;
-  s.pdf = 1.f / (kTwoPi * one_minus_cos_max);
-  return s;
+  const float q = -b + std::sqrt(disc);  // the far distance; the near one is c / q (Haines et al.)
+  *t = c / q;
+  return true;
 }
 
-// --- BSDF-only baseline: no light sample --------------------------------------
-PN_FN LightSample sample_light_none(const Light&, Vec3, Vec2) { return LightSample(); }
+// Parameters (a, b) with y = p + a e1 + b e2 of a point y in the plane of the
+// edges e1, e2 (any angle between them: the dual basis).
+PN_FN Vec2 plane_coordinates(Vec3 e1, Vec3 e2, Vec3 q) {
+  const float e11 = dot(e1, e1), e12 = dot(e1, e2), e22 = dot(e2, e2);
+  const float det = e11 * e22 - e12 * e12;
+  const float q1 = dot(q, e1), q2 = dot(q, e2);
+  return Vec2((q1 * e22 - q2 * e12) / det, (q2 * e11 - q1 * e12) / det);
+}
+
+// Where unit w from x meets the plane of a quad or triangle light from its
+// emitting side: distance t and plane coordinates (a, b) of the point.
+PN_FN bool planar_light_hit(const Light& l, Vec3 x, Vec3 w, float* t, Vec2* ab) {
+  const float dn = dot(w, l.n);
+  if (!(dn < 0.f)) return false;  // parallel, or towards the back side
+  *t = dot(l.p - x, l.n) / dn;
+  if (!(*t > 0.f)) return false;
+  *ab = plane_coordinates(l.e1, l.e2, x + w * *t - l.p);
+  return true;
+}
+PN_FN bool quad_light_distance(const Light& l, Vec3 x, Vec3 w, float* t) {
+  Vec2 ab;
+  return planar_light_hit(l, x, w, t, &ab) && ab.x >= 0.f && ab.x <= 1.f && ab.y >= 0.f && ab.y <= 1.f;
+}
+PN_FN bool triangle_light_distance(const Light& l, Vec3 x, Vec3 w, float* t, Vec2* b) {
+  return planar_light_hit(l, x, w, t, b) && b->x >= 0.f && b->y >= 0.f && b->x + b->y <= 1.f;
+}
+
+// Whether x sees the emitting side of a quad or triangle light.
+PN_FN bool faces_emitting_side(const Light& l, Vec3 x) { return dot(x - l.p, l.n) > 0.f; }
+
+// A quad light whose edges are orthogonal (within rounding): a rectangle, which
+// the spherical-rectangle sampler handles; other parallelograms are two triangles.
+PN_FN bool quad_is_rectangle(const Light& l) {
+  return std::fabs(dot(l.e1, l.e2)) <= 1e-5f * length(l.e1) * length(l.e2);
+}
+
+// Barycentrics (b1, b2) of a point of a triangle light, clamped into the triangle.
+PN_FN Vec2 clamp_barycentrics(Vec2 b) {
+  b.x = clamp(b.x, 0.f, 1.f);
+  b.y = clamp(b.y, 0.f, 1.f);
+  const float s = b.x + b.y;
+  if (s > 1.f) b = Vec2(b.x / s, b.y / s);
+  return b;
+}
 
 }  // namespace pn

@@ -200,13 +200,14 @@ PN_FN Vec3 bsdf_eval(const Bsdf& b, Vec3 wo, Vec3 wi) {
 }
 
 // Solid-angle density of bsdf_sample() returning wi.
+template <bool kSpecular = true>
 PN_FN float bsdf_pdf(const Bsdf& b, Vec3 wo, Vec3 wi) {
   if (dot(wi, b.ng) <= 0.f || dot(wo, b.ng) <= 0.f) return 0.f;
   Vec3 o = b.frame.to_local(wo), i = b.frame.to_local(wi);
   if (o.z <= 0.f || i.z <= 0.f) return 0.f;
-  float ps = bsdf_specular_probability(b, o.z);
+  float ps = kSpecular ? bsdf_specular_probability(b, o.z) : 0.f;
   float pdf = (1.f - ps) * cosine_hemisphere_pdf(i.z);
-  if (ps > 0.f) {
+  if (kSpecular && ps > 0.f) {
     Vec3 h = normalize(o + i);
     pdf += ps * ggx_visible_normal_pdf(o, h, b.alpha) / (4.f * dot(o, h));
   }

@@ -8,6 +8,7 @@
 #include "common.h"
 #include "environment.h"
 #include "geometry.h"
+#include "light_selection.h"
 #include "lights.h"
 #include "material.h"
 #include "texture.h"
@@ -69,7 +70,7 @@ struct SurfaceHit {
 struct SceneView {
   const Light* lights = nullptr;
   uint32_t num_lights = 0;
-  const float* light_cdf = nullptr;  // num_lights + 1 entries (power-proportional); null: uniform
+  LightSelectionView selection;  // the power CDF
   const Material* materials = nullptr;
   uint32_t num_materials = 0;
   const TextureView* textures = nullptr;
@@ -231,29 +232,6 @@ PN_FN Bsdf surface_bsdf(const SceneView& scene, const SurfaceHit& hit, Vec3 wo) 
   const float c = dot(ns, wo);
   if (c < 1e-4f) ns = normalize(ns + wo * (1e-4f - c));
   return make_bsdf(base, metallic, roughness, m.specular, ns, ng);
-}
-
-// Radiance a surface emits towards the side it was hit from (front faces only).
-template <uint32_t kFeatures = kAllFeatures>
-PN_FN Vec3 surface_emission(const SceneView& scene, const SurfaceHit& hit) {
-  const Light& l = scene.lights[hit.light];
-  if ((kFeatures & kFeatureTextures) && l.type == LightType::Triangle && l.emission_tex >= 0)
-    return l.radiance * texture_lookup(scene.textures[l.emission_tex], hit.uv).rgb;
-  return l.radiance;
-}
-
-// --- Light selection -----------------------------------------------------------
-
-// Picks a light in proportion to its power (the CDF), or uniformly without one.
-PN_FN uint32_t select_light(const SceneView& scene, float u, float* pmf) {
-  const uint32_t n = scene.num_lights;
-  if (scene.light_cdf == nullptr) {
-    *pmf = 1.f / float(n);
-    return pn_min(uint32_t(u * float(n)), n - 1);
-  }
-  const uint32_t lo = find_cdf_piece(scene.light_cdf, n, u);
-  *pmf = scene.light_cdf[lo + 1] - scene.light_cdf[lo];
-  return lo;
 }
 
 }  // namespace pn

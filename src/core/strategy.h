@@ -1,27 +1,32 @@
 // The registry of direct-lighting strategies, chosen per render by name.
 //
 // To add a strategy:
-//   1. write  PN_FN LightSample sample_light_<name>(const Light&, Vec3 x, Vec2 u)
-//      in lights.h, returning a direction with its solid-angle pdf (pdf 0: none);
+//   1. write its struct in core/light_strategies.h: sample_<type> and pdf_<type>
+//      for type = sphere, quad, triangle (a LightSample and a solid-angle pdf);
 //   2. add one X(...) line to PN_STRATEGIES below.
-// The enum, the name table, the CLI and the device-side switch all follow from it.
+// The enum, the name table, the CLI, the device-side switch and the GPU's
+// per-strategy programs all follow from it.
 #pragma once
 
-#include "lights.h"
+#include "light_strategies.h"
 
 namespace pn {
 
-//  X(Enum,        "cli-name",    sampling function,        does NEE, one-line description)
-#define PN_STRATEGIES(X)                                                                         \
-  X(Area,       "area",        sample_light_area,        true,                                  \
-    "uniform point on the light's surface, pdf converted to solid angle (thesis strategy A)")   \
-  X(SolidAngle, "solid-angle", sample_light_solid_angle, true,                                  \
-    "uniform direction in the cone a sphere light subtends; quads use area (strategy B)")       \
-  X(Bsdf,       "bsdf",        sample_light_none,        false,                                 \
+//  X(Enum,               "cli-name",              struct,                      does NEE, description)
+#define PN_STRATEGIES(X)                                                                                           \
+  X(Area, "area", AreaSampling, true,                                                                              \
+    "uniform point on the light's surface, pdf converted to solid angle (thesis strategy A)")                     \
+  X(SolidAngle, "solid-angle", SolidAngleSampling, true,                                                           \
+    "uniform in the light's solid angle: a sphere's cone (strategy B), spherical rectangles and triangles; "      \
+    "area sampling for polygons under 3e-4 sr or over 6.22 sr")                                                   \
+  X(ProjectedSolidAngle, "projected-solid-angle", ProjectedSolidAngleSampling, true,                               \
+    "density proportional to cos(theta) over the light's solid angle: a sphere's projected cap (exact); "         \
+    "polygons by the bilinear cosine warp of their spherical rectangle/triangle (approximately cos-proportional)") \
+  X(Bsdf, "bsdf", NoLightSampling, false,                                                                          \
     "no light sampling: light is found only by BSDF-sampled rays (naive baseline)")
 
 enum class Strategy : uint32_t {
-#define PN_X(e, name, fn, nee, desc) e,
+#define PN_X(e, name, impl, nee, desc) e,
   PN_STRATEGIES(PN_X)
 #undef PN_X
       Count
@@ -29,35 +34,23 @@ enum class Strategy : uint32_t {
 
 constexpr int kNumStrategies = int(Strategy::Count);
 
-// Static dispatch, usable in device code.
-PN_FN LightSample sample_light(Strategy s, const Light& light, Vec3 x, Vec2 u) {
-  switch (s) {
-#define PN_X(e, name, fn, nee, desc) \
-  case Strategy::e:                  \
-    return fn(light, x, u);
-    PN_STRATEGIES(PN_X)
-#undef PN_X
-    default:
-      return LightSample();
-  }
-}
-
 PN_FN bool strategy_uses_nee(Strategy s) {
   switch (s) {
-#define PN_X(e, name, fn, nee, desc) \
-  case Strategy::e:                  \
+#define PN_X(e, name, impl, nee, desc) \
+  case Strategy::e:                    \
     return nee;
     PN_STRATEGIES(PN_X)
 #undef PN_X
-    default:
-      return false;
+    case Strategy::Count:
+      break;
   }
+  return false;
 }
 
 // Host-side name tables.
 inline const char* strategy_name(Strategy s) {
   static const char* names[] = {
-#define PN_X(e, name, fn, nee, desc) name,
+#define PN_X(e, name, impl, nee, desc) name,
       PN_STRATEGIES(PN_X)
 #undef PN_X
   };
@@ -65,11 +58,64 @@ inline const char* strategy_name(Strategy s) {
 }
 inline const char* strategy_description(Strategy s) {
   static const char* descs[] = {
-#define PN_X(e, name, fn, nee, desc) desc,
+#define PN_X(e, name, impl, nee, desc) desc,
       PN_STRATEGIES(PN_X)
 #undef PN_X
   };
   return int(s) < kNumStrategies ? descs[int(s)] : "?";
+}
+
+// --- Multiple importance sampling (Veach & Guibas 1995) ----------------------------
+// With MIS, every vertex takes one light sample and one BSDF sample, and each
+// contribution is weighted by a heuristic of the two techniques' densities for
+// its direction; with `none`, light samples alone count emission from lights,
+// BSDF-sampled rays only where no light sampling took place (camera rays, the
+// bsdf strategy), which is the thesis's estimator.
+#define PN_MIS_MODES(X)                                                                 \
+  X(None, "none", "light sampling only; emission hit by BSDF rays is not counted")     \
+  X(Balance, "balance", "one light and one BSDF sample, balance heuristic p_a / sum p") \
+  X(Power, "power", "one light and one BSDF sample, power heuristic p_a^2 / sum p^2")
+
+enum class Mis : uint32_t {
+#define PN_X(e, name, desc) e,
+  PN_MIS_MODES(PN_X)
+#undef PN_X
+      Count
+};
+constexpr int kNumMisModes = int(Mis::Count);
+
+inline const char* mis_name(Mis m) {
+  static const char* names[] = {
+#define PN_X(e, name, desc) name,
+      PN_MIS_MODES(PN_X)
+#undef PN_X
+  };
+  return int(m) < kNumMisModes ? names[int(m)] : "?";
+}
+inline const char* mis_description(Mis m) {
+  static const char* descs[] = {
+#define PN_X(e, name, desc) desc,
+      PN_MIS_MODES(PN_X)
+#undef PN_X
+  };
+  return int(m) < kNumMisModes ? descs[int(m)] : "?";
+}
+
+// The weight of technique a for a direction both techniques can sample, with
+// densities pa (> 0) and pb: pa / (pa + pb) or pa^2 / (pa^2 + pb^2), written as
+// a function of their ratio so that huge densities (area sampling at grazing
+// angles) neither overflow nor turn into inf / inf.
+PN_FN float mis_weight(Mis m, float pa, float pb) {
+  if (m == Mis::None) return 1.f;
+  if (!(pb > 0.f)) return 1.f;
+  if (!(pa > 0.f)) return 0.f;
+  const bool power = m == Mis::Power;
+  if (pa >= pb) {
+    const float r = pb / pa, r2 = power ? r * r : r;
+    return 1.f / (1.f + r2);
+  }
+  const float r = pa / pb, r2 = power ? r * r : r;
+  return r2 / (1.f + r2);
 }
 
 }  // namespace pn

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <utility>
 
 #include "scene/scene.h"
 
@@ -41,8 +42,9 @@ json cornell_box(float light_radius, json light_center) {
   });
   return {
       {"camera", {{"eye", {2.78, 2.73, -8.0}}, {"target", {2.78, 2.73, 0.0}}, {"up", {0, 1, 0}}, {"fov", 39.3}}},
+      // The thesis's estimator (light sampling alone, no MIS), so that the chapter-4 study is unchanged.
       {"render", {{"width", 1920}, {"height", 1080}, {"spp", 64}, {"max_depth", 8}, {"rr_depth", 5},
-                  {"strategy", "solid-angle"}, {"seed", 0}}},
+                  {"strategy", "solid-angle"}, {"mis", "none"}, {"seed", 0}}},
       {"background", {0, 0, 0}},
       {"materials", {{"white", {{"albedo", {0.73, 0.73, 0.73}}}},
                      {"red", {{"albedo", {0.65, 0.05, 0.05}}}},
@@ -79,6 +81,55 @@ json make_occlusion() {
   for (int i = 0; pitch * (i + 0.5f) < kD; ++i)
     doc["shapes"].push_back({{"type", "instance"}, {"mesh", "slat-z"}, {"material", "slat"},
                              {"transform", {{"translate", {kW / 2, 4.37, pitch * (i + 0.5f)}}}}});
+  return doc;
+}
+
+// The classic Cornell box: its original ceiling light, a 1.30 x 1.05 quad just
+// below the ceiling emitting downwards (the scene of Mitsuba's cornell_box() and
+// pbrt's tests), with the thesis's power. MIS on, as for any new render.
+json make_cornell_quad() {
+  json doc = cornell_box(0.25f, {0, 0, 0});
+  doc["render"]["mis"] = "power";
+  doc["lights"] = json::array({{{"type", "quad"}, {"corner", {2.13, kH - 0.001, 2.27}}, {"edge1", {1.30, 0, 0}},
+                                {"edge2", {0, 0, 1.05}}, {"power", kCornellPower}}});
+  return doc;
+}
+
+// A cove light: a folded strip of six emissive triangles along the foot of the
+// back wall, 0.1 to 0.95 from it and 0.7 to 1.5 above a glossy floor, emitting
+// towards the wall and the floor. The wall and floor points nearest the strip
+// see it under a large solid angle and its folds under grazing angles, where
+// area sampling of polygons is at its worst; the rest of the room is lit by
+// what the wall and floor reflect.
+json make_polygon_near() {
+  json doc = cornell_box(0.25f, {0, 0, 0});
+  doc["render"]["mis"] = "power";
+  doc["lights"] = json::array();
+  doc["materials"]["floor"] = {{"base_color", {0.45, 0.45, 0.47}}, {"metallic", 0}, {"roughness", 0.2}, {"specular", 0.5}};
+  doc["materials"]["cove"] = {{"albedo", {0, 0, 0}}, {"emission", {12.0, 10.5, 8.0}}};
+  doc["shapes"][0]["material"] = "floor";
+  // Top row near the wall, bottom row further out and lower, both zig-zagging in z.
+  const float xs[4] = {1.0f, 2.19f, 3.37f, 4.56f};
+  json positions = json::array(), indices = json::array();
+  for (int i = 0; i < 4; ++i) {
+    positions.push_back({xs[i], 1.5, kD - 0.1 - 0.3 * (i % 2)});         // 2i: top
+    positions.push_back({xs[i], 0.7, kD - 0.65 - 0.3 * ((i + 1) % 2)});  // 2i + 1: bottom
+  }
+  // Wound so that the emitting (front) side faces the wall and the floor.
+  const Vec3 towards(0.f, -0.6f, 0.8f);
+  auto vtx = [&](int k) {
+    const json& p = positions[size_t(k)];
+    return Vec3(p[0].get<float>(), p[1].get<float>(), p[2].get<float>());
+  };
+  auto add = [&](int a, int b, int c) {
+    if (dot(cross(vtx(b) - vtx(a), vtx(c) - vtx(a)), towards) < 0.f) std::swap(b, c);
+    indices.push_back({a, b, c});
+  };
+  for (int i = 0; i < 3; ++i) {
+    add(2 * i, 2 * i + 1, 2 * i + 2);
+    add(2 * i + 2, 2 * i + 1, 2 * i + 3);
+  }
+  doc["shapes"].push_back({{"type", "mesh"}, {"positions", positions}, {"indices", indices}, {"material", "cove"}});
   return doc;
 }
 
@@ -172,41 +223,41 @@ json make_bunnies() {
 // Rough metals and plastics under a sphere light and an HDR sky with a sun
 // (data/sky.hdr, made by scripts/make_sky.py): glossy reflections of small, bright
 // sources, where sampling the light alone is not enough.
+// Metals and plastics under a sphere light and an HDR sky with a sun
+// (data/sky.hdr, made by scripts/make_sky.py): glossy reflections of small, bright
+// sources, where sampling the light alone is not enough. One parameter, the
+// roughness of every material (defaults.roughness, 0 = mirror-like, 1 = rough),
+// so that a sweep can run from one end to the other.
 json make_glossy() {
   struct Ball { const char* mat; double x, z; };
-  const Ball balls[] = {{"gold-05", -3.3, -0.8}, {"gold-20", -2.2, -0.8}, {"copper-20", -1.1, -0.8},
-                        {"copper-40", 0, -0.8}, {"alu-05", 1.1, -0.8}, {"alu-40", 2.2, -0.8}, {"alu-60", 3.3, -0.8},
-                        {"plastic-red-05", -3.0, 1.2}, {"plastic-blue-20", -1.6, 1.2}, {"plastic-white-40", 1.6, 1.2},
-                        {"plastic-green-60", 3.0, 1.2}};
+  const Ball balls[] = {{"gold", -3.3, -0.8}, {"gold", -2.2, -0.8}, {"copper", -1.1, -0.8},
+                        {"copper", 0, -0.8}, {"aluminium", 1.1, -0.8}, {"aluminium", 2.2, -0.8}, {"aluminium", 3.3, -0.8},
+                        {"plastic-red", -3.0, 1.2}, {"plastic-blue", -1.6, 1.2}, {"plastic-white", 1.6, 1.2},
+                        {"plastic-green", 3.0, 1.2}};
   json shapes = json::array();
   shapes.push_back({{"type", "quad"}, {"corner", {-20, 0, -20}}, {"edge1", {0, 0, 40}}, {"edge2", {40, 0, 0}},
                     {"material", "floor"}});
   for (const Ball& b : balls)
     shapes.push_back({{"type", "sphere"}, {"center", {b.x, 0.5, b.z}}, {"radius", 0.5}, {"material", b.mat}});
   shapes.push_back({{"type", "box"}, {"center", {-2.3, 0.45, 2.9}}, {"size", {0.9, 0.9, 0.9}}, {"rotate_y", 30},
-                    {"material", "plastic-white-05"}});
+                    {"material", "plastic-white"}});
   shapes.push_back({{"type", "box"}, {"center", {2.3, 0.45, 2.9}}, {"size", {0.9, 0.9, 0.9}}, {"rotate_y", -20},
-                    {"material", "copper-05"}});
-  auto metal = [](json c, double r) { return json{{"base_color", c}, {"metallic", 1}, {"roughness", r}}; };
-  auto plastic = [](json c, double r) {
-    return json{{"base_color", c}, {"metallic", 0}, {"roughness", r}, {"specular", 0.5}};
+                    {"material", "copper"}});
+  auto metal = [](json c) { return json{{"base_color", c}, {"metallic", 1}, {"roughness", "$roughness"}}; };
+  auto plastic = [](json c) {
+    return json{{"base_color", c}, {"metallic", 0}, {"roughness", "$roughness"}, {"specular", 0.5}};
   };
-  const json gold = {1.0, 0.766, 0.336}, copper = {0.955, 0.638, 0.538}, alu = {0.913, 0.922, 0.924};
   return {
+      {"defaults", {{"roughness", 0.2}}},
       {"camera", {{"eye", {0, 3.0, -7.8}}, {"target", {0, 0.6, 0.8}}, {"up", {0, 1, 0}}, {"fov", 38}}},
       {"render", render_block()},
-      {"materials", {{"floor", plastic({0.35, 0.35, 0.38}, 0.5)},
-                     {"gold-05", metal(gold, 0.05)}, {"gold-20", metal(gold, 0.2)},
-                     {"copper-05", metal(copper, 0.05)}, {"copper-20", metal(copper, 0.2)},
-                     {"copper-40", metal(copper, 0.4)},
-                     {"alu-05", metal(alu, 0.05)}, {"alu-40", metal(alu, 0.4)}, {"alu-60", metal(alu, 0.6)},
-                     {"plastic-red-05", plastic({0.7, 0.05, 0.05}, 0.05)},
-                     {"plastic-blue-20", plastic({0.05, 0.15, 0.7}, 0.2)},
-                     {"plastic-white-05", plastic({0.8, 0.8, 0.8}, 0.05)},
-                     {"plastic-white-40", plastic({0.8, 0.8, 0.8}, 0.4)},
-                     {"plastic-green-60", plastic({0.1, 0.5, 0.15}, 0.6)}}},
+      {"materials", {{"floor", plastic({0.35, 0.35, 0.38})},
+                     {"gold", metal({1.0, 0.766, 0.336})}, {"copper", metal({0.955, 0.638, 0.538})},
+                     {"aluminium", metal({0.913, 0.922, 0.924})},
+                     {"plastic-red", plastic({0.7, 0.05, 0.05})}, {"plastic-blue", plastic({0.05, 0.15, 0.7})},
+                     {"plastic-white", plastic({0.8, 0.8, 0.8})}, {"plastic-green", plastic({0.1, 0.5, 0.15})}}},
       {"shapes", shapes},
-      {"models", json::array({{{"file", scene_data_file("models/stanford-bunny.obj")}, {"material", "gold-20"},
+      {"models", json::array({{{"file", scene_data_file("models/stanford-bunny.obj")}, {"material", "gold"},
                                {"transform", {{"scale", 12}, {"rotate", {0, 1, 0, 200}}, {"translate", {0, -0.396, 1.4}}}}}})},
       {"lights", json::array({{{"type", "sphere"}, {"center", {2.5, 4.0, -1.5}}, {"radius", 0.3}, {"power", 300}}})},
       {"environment", {{"file", source_data_file("sky.hdr")}, {"rotation", 0}, {"intensity", 1}}},
@@ -229,11 +280,15 @@ const std::vector<BuiltinScene>& builtin_scenes() {
        make_cornell_sphere},
       {"cornell-near", "Cornell box with a small sphere light two radii from the back wall", make_cornell_near},
       {"occlusion", "sphere light behind two crossed layers of slats: most shadow rays are blocked", make_occlusion},
+      {"cornell-quad", "the classic Cornell box with its original ceiling quad light", make_cornell_quad},
+      {"polygon-near", "a folded strip of emissive triangles close to the back wall and a glossy floor (cove light)",
+       make_polygon_near},
       {"sponza", "Dabrovic's Sponza atrium (OBJ + MTL + textures) lit by a small sphere light above its open roof",
        make_sponza},
       {"bunnies", "24 x 24 instanced Stanford bunnies (40M triangles placed, one mesh stored) under a sphere light",
        make_bunnies},
-      {"glossy", "rough metal and plastic spheres, boxes and a bunny under a sphere light and an HDR sky with a sun",
+      {"glossy", "metal and plastic spheres, boxes and a bunny under a sphere light and an HDR sky with a sun "
+                 "(set defaults.roughness, default 0.2)",
        make_glossy},
   };
   return scenes;

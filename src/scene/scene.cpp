@@ -2,6 +2,7 @@
 #include "scene/scene.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -103,7 +104,7 @@ void parse_camera(const Node& n, Scene& s) {
 }
 
 void parse_render(const Node& n, Scene& s) {
-  n.expect_object({"width", "height", "spp", "max_depth", "rr_depth", "strategy", "seed"});
+  n.expect_object({"width", "height", "spp", "max_depth", "rr_depth", "strategy", "mis", "light_selection", "seed"});
   RenderSettings& r = s.render;
   if (n.has("width")) r.width = n.at("width").integer(1, kMaxResolution);
   if (n.has("height")) r.height = n.at("height").integer(1, kMaxResolution);
@@ -111,6 +112,9 @@ void parse_render(const Node& n, Scene& s) {
   if (n.has("max_depth")) r.max_depth = n.at("max_depth").integer(0, kMaxDepth);
   if (n.has("rr_depth")) r.rr_depth = n.at("rr_depth").integer(1, kMaxDepth);
   if (n.has("strategy")) r.strategy = parse_strategy(n.at("strategy").string(), s.source + ": " + n.path + ".strategy");
+  if (n.has("mis")) r.mis = parse_mis(n.at("mis").string(), s.source + ": " + n.path + ".mis");
+  if (n.has("light_selection"))
+    r.light_selection = parse_light_selection(n.at("light_selection").string(), s.source + ": " + n.path + ".light_selection");
   if (n.has("seed")) r.seed = uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max())));
 }
 
@@ -435,24 +439,80 @@ void parse_light(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
 
 }  // namespace
 
-std::string strategy_names() {
+namespace {
+// "a, b, c" of an X-macro enum's names, and the enum of a name.
+template <class E>
+std::string enum_names(int count, const char* (*name)(E)) {
   std::string out;
-  for (int i = 0; i < kNumStrategies; ++i) out += (i ? ", " : "") + std::string(strategy_name(Strategy(i)));
+  for (int i = 0; i < count; ++i) out += (i ? ", " : "") + std::string(name(E(i)));
   return out;
 }
+template <class E>
+E parse_enum(const std::string& text, const std::string& where, const char* what, int count, const char* (*name)(E)) {
+  for (int i = 0; i < count; ++i)
+    if (text == name(E(i))) return E(i);
+  throw SceneError(where + ": unknown " + what + " '" + text + "' (expected one of: " + enum_names(count, name) + ")");
+}
+}  // namespace
 
+std::string strategy_names() { return enum_names(kNumStrategies, strategy_name); }
 Strategy parse_strategy(const std::string& name, const std::string& where) {
-  for (int i = 0; i < kNumStrategies; ++i)
-    if (name == strategy_name(Strategy(i))) return Strategy(i);
-  throw SceneError(where + ": unknown strategy '" + name + "' (expected one of: " + strategy_names() + ")");
+  return parse_enum(name, where, "strategy", kNumStrategies, strategy_name);
+}
+std::string mis_names() { return enum_names(kNumMisModes, mis_name); }
+Mis parse_mis(const std::string& name, const std::string& where) {
+  return parse_enum(name, where, "MIS mode", kNumMisModes, mis_name);
+}
+std::string light_selection_names() { return enum_names(kNumLightSelections, light_selection_name); }
+LightSelection parse_light_selection(const std::string& name, const std::string& where) {
+  return parse_enum(name, where, "light selection", kNumLightSelections, light_selection_name);
 }
 
-Scene parse_scene(const json& doc, const std::string& source, const std::string& base_dir) {
+namespace {
+// Replaces every string "$name" of the document by defaults[name] (the scene's
+// parameters: Mitsuba's <default> and $name). Unknown names are errors that
+// name the field.
+void substitute_parameters(json& j, const json& defaults, const std::string& path, const std::string& source) {
+  if (j.is_string()) {
+    const std::string& v = j.get_ref<const std::string&>();
+    if (v.size() < 2 || v[0] != '$') return;
+    for (size_t i = 1; i < v.size(); ++i)
+      if (!(std::isalnum((unsigned char)v[i]) || v[i] == '_')) return;
+    const std::string name = v.substr(1);
+    if (!defaults.is_object() || !defaults.contains(name)) {
+      std::string list;
+      if (defaults.is_object())
+        for (auto it = defaults.begin(); it != defaults.end(); ++it) list += (list.empty() ? "" : ", ") + it.key();
+      throw SceneError(source + ": " + path + ": unknown parameter '" + v + "' (\"defaults\" defines: " +
+                       (list.empty() ? "none" : list) + ")");
+    }
+    j = defaults[name];
+  } else if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it)
+      substitute_parameters(it.value(), defaults, path.empty() ? it.key() : path + "." + it.key(), source);
+  } else if (j.is_array()) {
+    for (size_t i = 0; i < j.size(); ++i) substitute_parameters(j[i], defaults, path + "[" + std::to_string(i) + "]", source);
+  }
+}
+}  // namespace
+
+Scene parse_scene(const json& original, const std::string& source, const std::string& base_dir) {
   Scene s;
   s.source = source;
+  json doc = original;
+  if (doc.is_object()) {
+    json defaults = doc.contains("defaults") ? doc["defaults"] : json::object();
+    if (!defaults.is_object()) Node{defaults, "defaults", s.source}.fail("expected an object mapping names to values");
+    for (auto it = defaults.begin(); it != defaults.end(); ++it)
+      if (it.value().is_string() && !it.value().get_ref<const std::string&>().empty() &&
+          it.value().get_ref<const std::string&>()[0] == '$')
+        Node{it.value(), "defaults." + it.key(), s.source}.fail("a parameter's value cannot refer to another one");
+    for (auto it = doc.begin(); it != doc.end(); ++it)
+      if (it.key() != "defaults") substitute_parameters(it.value(), defaults, it.key(), s.source);
+  }
   Node root{doc, "", s.source};
   root.expect_object({"camera", "render", "background", "materials", "meshes", "shapes", "lights", "models",
-                      "environment"});
+                      "environment", "defaults"});
   if (root.has("render")) parse_render(root.at("render"), s);
   if (root.has("background")) s.background = root.at("background").color(1e9f);
 
@@ -623,7 +683,7 @@ std::unique_ptr<HostSceneView> make_host_view(const Scene& scene) {
   SceneView& v = h->view;
   v.lights = scene.lights.data();
   v.num_lights = uint32_t(scene.lights.size());
-  v.light_cdf = scene.light_cdf.empty() ? nullptr : scene.light_cdf.data();
+  v.selection.power_cdf = scene.light_cdf.empty() ? nullptr : scene.light_cdf.data();
   v.materials = scene.materials.data();
   v.num_materials = uint32_t(scene.materials.size());
   v.textures = h->textures.data();
@@ -839,6 +899,8 @@ Camera Scene::make_camera() const {
 IntegratorSettings Scene::integrator() const {
   IntegratorSettings s;
   s.strategy = render.strategy;
+  s.mis = render.mis;
+  s.light_selection = render.light_selection;
   s.max_depth = render.max_depth;
   s.rr_depth = render.rr_depth;
   return s;

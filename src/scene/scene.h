@@ -99,6 +99,8 @@ struct RenderSettings {
   int max_depth = 8;
   int rr_depth = 5;
   Strategy strategy = Strategy::SolidAngle;
+  Mis mis = Mis::Power;  // what pbrt-v4 and Mitsuba 3 users expect; the thesis's scenes say "none"
+  LightSelection light_selection = LightSelection::Power;
   uint32_t seed = 0;
 };
 
@@ -113,7 +115,7 @@ struct Scene {
   std::vector<TriangleMesh> meshes;   // quads, boxes, quad lights, meshes, named meshes
   std::vector<Instance> instances;    // every placement of a mesh in the world
   std::vector<Light> lights;          // spheres, quads, emissive triangles (world space), environment
-  std::vector<float> light_cdf;       // power-proportional selection, lights.size() + 1 entries
+  std::vector<float> light_cdf;       // power-proportional selection (LightSelection::Power), lights.size() + 1 entries
   std::vector<TextureImage> textures;
   Environment environment;
   std::vector<std::string> warnings;  // non-fatal problems found while loading (missing textures, ...)
@@ -175,8 +177,13 @@ const BuiltinScene* find_builtin(const std::string& name);
 // ../shared/scenes (relative to the current directory).
 std::vector<std::string> scene_data_roots();
 
-// Parses a strategy name; throws SceneError listing the valid names.
+// Parse the names of strategies, MIS modes and light-selection methods; throw
+// SceneError naming `where` and listing the valid names.
 Strategy parse_strategy(const std::string& name, const std::string& where);
-std::string strategy_names();  // "area, solid-angle, bsdf"
+std::string strategy_names();  // "area, solid-angle, projected-solid-angle, bsdf"
+Mis parse_mis(const std::string& name, const std::string& where);
+std::string mis_names();  // "none, balance, power"
+LightSelection parse_light_selection(const std::string& name, const std::string& where);
+std::string light_selection_names();  // "uniform, power"
 
 }  // namespace pn

@@ -61,6 +61,12 @@ Check strategy() {
     parse_strategy(v.get<std::string>(), where);
   };
 }
+Check mis() {
+  return [](const ojson& v, const std::string& where) {
+    if (!v.is_string()) fail(where, "must be an MIS mode: " + mis_names() + " (got " + v.dump() + ")");
+    parse_mis(v.get<std::string>(), where);
+  };
+}
 Check file(bool image, bool png_only = false) {
   return [=](const ojson& v, const std::string& where) {
     if (!v.is_string() || v.get<std::string>().empty()) fail(where, "must be a file name (got " + v.dump() + ")");
@@ -98,7 +104,8 @@ const std::map<std::string, Check>& checks() {
       {"move", numbers(3)},           {"camera", camera()},
       {"reset", boolean(true)},       {"fov", number_in(1, 170)},
       {"fly", boolean()},             {"fly_speed", number_in(0, 1e9, true)},
-      {"strategy", strategy()},       {"spp_per_frame", integer_in(1, 4096)},
+      {"strategy", strategy()},       {"mis", mis()},
+      {"spp_per_frame", integer_in(1, 4096)},
       {"max_depth", integer_in(0, 1000)},
       {"exposure", number_in(-64, 64)}, {"scale", number_in(0.05, 4)},
       {"light_radius", number_in(0, 1e9, true)},

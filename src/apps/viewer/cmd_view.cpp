@@ -6,6 +6,7 @@
 #include <string>
 
 #include "apps/commands.h"
+#include "apps/options.h"
 #include "apps/viewer/viewer.h"
 #include "scene/scene.h"
 
@@ -14,14 +15,14 @@ namespace {
 
 struct ViewArgs {
   viewer::ViewerOptions o;
-  std::string strategy;
+  IntegratorOptions integrator;
   static constexpr long long kUnset = std::numeric_limits<long long>::min();
   long long max_depth = kUnset, seed = kUnset;
 };
 
 int run_view(ViewArgs a) {
   // Like `render`, command-line settings are scene overrides, validated with the scene.
-  if (!a.strategy.empty()) a.o.sets.push_back("render.strategy=\"" + a.strategy + "\"");
+  append_integrator_overrides(a.integrator, &a.o.sets);
   if (a.max_depth != ViewArgs::kUnset) a.o.sets.push_back("render.max_depth=" + std::to_string(a.max_depth));
   if (a.seed != ViewArgs::kUnset) a.o.sets.push_back("render.seed=" + std::to_string(a.seed));
 #if PENUMBRA_HAVE_VIEWER
@@ -54,7 +55,7 @@ Command add_view_command(CLI::App& app) {
   sub->add_option("--scale", a->o.scale,
                   "Resolution scale: image pixels per window pixel (default 1; on the CPU at most ~640x360 pixels)")
       ->check(CLI::Range(0.05f, 4.f));
-  sub->add_option("--strategy", a->strategy, "Direct-lighting strategy: " + strategy_names() + " (default: the scene's)");
+  add_integrator_options(sub, &a->integrator);
   sub->add_option("--spp-per-frame", a->o.spp_per_frame, "Samples per pixel added each frame")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));

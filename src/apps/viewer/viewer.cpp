@@ -65,6 +65,7 @@ bool same(const CameraDesc& a, const CameraDesc& b) {
 struct ImageSettings {
   CameraDesc camera;
   Strategy strategy = Strategy::SolidAngle;
+  Mis mis = Mis::Power;
   int max_depth = 0;
   int width = 0, height = 0;
   bool split = false;  // the divider is not here: it only chooses which image each column shows
@@ -73,7 +74,7 @@ struct ImageSettings {
   std::vector<std::string> scene_overrides;  // the light's edits, on top of the command line's
 
   bool operator==(const ImageSettings& o) const {
-    return same(camera, o.camera) && strategy == o.strategy && max_depth == o.max_depth && width == o.width &&
+    return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && max_depth == o.max_depth && width == o.width &&
            height == o.height && split == o.split && left == o.left && right == o.right &&
            equal_time == o.equal_time && scene_overrides == o.scene_overrides;
   }
@@ -169,6 +170,7 @@ class Viewer {
   // What the user controls.
   CameraControl camera_;
   Strategy strategy_ = Strategy::SolidAngle;
+  Mis mis_ = Mis::Power;
   int max_depth_ = 8;
   int spp_per_frame_ = 1;
   float exposure_ = 0.f;
@@ -215,6 +217,7 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   light_initial_ = light_applied_ = light_ = LightEdit::of(*scene_);
   camera_ = CameraControl(scene_->camera);
   strategy_ = scene_->render.strategy;
+  mis_ = scene_->render.mis;
   max_depth_ = scene_->render.max_depth;
   spp_per_frame_ = opt_.spp_per_frame;
   exposure_ = opt_.exposure;
@@ -348,6 +351,7 @@ ImageSettings Viewer::wanted() const {
   ImageSettings s;
   s.camera = camera_.desc();
   s.strategy = strategy_;
+  s.mis = mis_;
   s.max_depth = max_depth_;
   int fw = 0, fh = 0;
   glfwGetFramebufferSize(window_, &fw, &fh);
@@ -402,6 +406,7 @@ void Viewer::restart(const ImageSettings& s) {
   const CameraDesc& c = s.camera;
   base.camera = Camera::look_at(c.eye, c.target, c.up, c.fov, s.width, s.height);
   base.integrator.max_depth = s.max_depth;
+  base.integrator.mis = s.mis;
   try {
     display_->resize(s.width, s.height);
   } catch (const std::exception& e) {  // registering the new size's pixel buffer with CUDA failed
@@ -544,6 +549,7 @@ void Viewer::save_camera_file(const std::string& path) {
   std::vector<std::string> overrides = opt_.sets;
   overrides.insert(overrides.end(), applied_.scene_overrides.begin(), applied_.scene_overrides.end());
   overrides.push_back("render.strategy=\"" + std::string(strategy_name(strategy_)) + "\"");
+  overrides.push_back("render.mis=\"" + std::string(mis_name(mis_)) + "\"");
   overrides.push_back("render.max_depth=" + std::to_string(max_depth_));
   std::string source;
   nlohmann::json doc = load_scene_json(opt_.scene, overrides, &source);
@@ -679,6 +685,17 @@ void Viewer::draw_panel() {
   };
   ImGui::Separator();
   if (!split_) strategy_combo("strategy", &strategy_);
+  {
+    int m = int(mis_);
+    if (ImGui::Combo(
+            "MIS", &m,
+            [](void*, int k, const char** out) {
+              *out = mis_name(Mis(k));
+              return true;
+            },
+            nullptr, kNumMisModes))
+      mis_ = Mis(m);
+  }
   ImGui::SliderInt("spp / frame", &spp_per_frame_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
   ImGui::SliderInt("max depth", &max_depth_, 0, 32);
   ImGui::SliderFloat("exposure", &exposure_, -8.f, 8.f, "%+.1f stops");
@@ -691,7 +708,7 @@ void Viewer::draw_panel() {
     if (split_) {
       strategy_combo("left", &left_);
       strategy_combo("right", &right_);
-      ImGui::TextDisabled("keys 1-3: left side, shift+1-3: right side");
+      ImGui::TextDisabled("keys 1-4: left side, shift+1-4: right side");
       ImGui::SliderFloat("divider", &divider_, 0.f, 1.f, "%.2f");
     }
   }
@@ -742,7 +759,7 @@ void Viewer::draw_panel() {
   if (ImGui::CollapsingHeader("Controls")) {
     ImGui::TextWrapped(
         "left drag: orbit (fly: look)   middle or shift+left drag: pan   wheel: dolly (fly: speed)   "
-        "F: fly mode, WASD/QE to move, shift: faster   R: reset camera   1/2/3: strategy (split: left; "
+        "F: fly mode, WASD/QE to move, shift: faster   R: reset camera   1-4: strategy (split: left; "
         "shift: right)   drag the divider   P: screenshot   Tab: panel");
   }
   ImGui::TextDisabled("%s", gl_info_.c_str());
@@ -784,6 +801,7 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "fly") fly_ = v.get<bool>();
   else if (k == "fly_speed") fly_speed_ = v.get<float>();
   else if (k == "strategy") strategy_ = strategy();
+  else if (k == "mis") mis_ = parse_mis(v.get<std::string>(), a.where);
   else if (k == "spp_per_frame") spp_per_frame_ = v.get<int>();
   else if (k == "max_depth") max_depth_ = v.get<int>();
   else if (k == "exposure") exposure_ = v.get<float>();

@@ -80,16 +80,19 @@ __forceinline__ __device__ void set_hit_payload(float t, uint32_t instance, uint
 // PENUMBRA_OPTIX_PIXELS_PER_THREAD tune this), params.spp samples of each,
 // summed with their squares.
 //
-// One raygen program per strategy (the PN_STRATEGIES registry): with the strategy
-// a compile-time constant, the other strategies' sampling code folds away, which
-// keeps the megakernel small; instruction fetch, not arithmetic, is what stalls
-// warps most in this kernel (ncu: stall_no_inst). For the same reason each
-// strategy exists at three feature levels (kFeatureLevels, launch_params.h).
-template <Strategy kStrategy, uint32_t kFeatures>
+// One raygen program per strategy (the PN_STRATEGIES registry) and MIS on or
+// off: with both compile-time constants, the other strategies' sampling code and
+// (without MIS) the pdf evaluations fold away, which keeps the megakernel small;
+// instruction fetch, not arithmetic, is what stalls warps most in this kernel
+// (ncu: stall_no_inst). For the same reason each exists at three feature levels
+// (kFeatureLevels, launch_params.h). Balance or power is a run-time choice.
+template <Strategy kStrategy, bool kMis, uint32_t kFeatures>
 __forceinline__ __device__ void render_pixels() {
   const LaunchParams& p = P();
   IntegratorSettings settings = p.integrator;
   settings.strategy = kStrategy;
+  if (!kMis) settings.mis = Mis::None;
+  else if (settings.mis == Mis::None) settings.mis = Mis::Power;  // not launched so: the host picks by mis
   const uint3 dim = optixGetLaunchDimensions(), idx = optixGetLaunchIndex();
   const uint32_t threads = dim.x * dim.y;
   const uint32_t width = uint32_t(p.camera.width);
@@ -124,13 +127,21 @@ __forceinline__ __device__ void render_pixels() {
 using namespace pn;
 using namespace pn::optix;
 
-// __raygen__Area_basic, __raygen__Area_textured, __raygen__Area_full, __raygen__SolidAngle_basic, ...
-#define PN_X(e, name, fn, nee, desc) \
-  extern "C" __global__ void __raygen__##e##_basic() { render_pixels<Strategy::e, kFeatureLevels[0]>(); }       \
-  extern "C" __global__ void __raygen__##e##_textured() { render_pixels<Strategy::e, kFeatureLevels[1]>(); }    \
-  extern "C" __global__ void __raygen__##e##_full() { render_pixels<Strategy::e, kFeatureLevels[2]>(); }
+// __raygen__Area_basic, __raygen__Area_mis_basic, __raygen__Area_textured, ..., __raygen__SolidAngle_basic, ...
+#define PN_RAYGEN(e, mis, suffix, level)                                                      \
+  extern "C" __global__ void __raygen__##e##suffix##_##level() {                            \
+    render_pixels<Strategy::e, mis, kFeatureLevels[kFeatureLevel_##level]>();               \
+  }
+#define PN_X(e, name, impl, nee, desc)  \
+  PN_RAYGEN(e, false, , basic)          \
+  PN_RAYGEN(e, true, _mis, basic)       \
+  PN_RAYGEN(e, false, , textured)       \
+  PN_RAYGEN(e, true, _mis, textured)    \
+  PN_RAYGEN(e, false, , full)           \
+  PN_RAYGEN(e, true, _mis, full)
 PN_STRATEGIES(PN_X)
 #undef PN_X
+#undef PN_RAYGEN
 
 extern "C" __global__ void __miss__radiance() { optixSetPayload_1(kMissMarker); }
 

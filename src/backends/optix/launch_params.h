@@ -37,12 +37,17 @@ enum : uint32_t { kMissRadiance = 0, kMissShadow = 1, kNumMissPrograms = 2 };
 enum : uint32_t { kSbtMesh = 0, kSbtSphere = 2, kNumHitRecords = 3 };
 
 // The raygen programs' feature levels (core/scene_view.h, SceneFeature): every
-// strategy is compiled once per level, and the backend runs the smallest level
+// strategy, with and without MIS, is compiled once per level, and the backend runs the smallest level
 // that covers the scene, so that a Lambertian Cornell box does not pay for the
 // GGX, texture and environment code in its megakernel.
 constexpr uint32_t kNumFeatureLevels = 3;
+enum : uint32_t { kFeatureLevel_basic = 0, kFeatureLevel_textured = 1, kFeatureLevel_full = 2 };
 constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {0u, kFeatureShading | kFeatureTextures, kAllFeatures};
 constexpr const char* kFeatureLevelNames[kNumFeatureLevels] = {"basic", "textured", "full"};
+
+// Raygen programs: two per strategy, without and with MIS, in registry order.
+constexpr uint32_t kNumRaygens = 2 * uint32_t(kNumStrategies);
+PN_FN uint32_t raygen_index(Strategy s, Mis mis) { return 2u * uint32_t(s) + (mis == Mis::None ? 0u : 1u); }
 
 struct LaunchParams {
   OptixTraversableHandle handle = 0;  // the IAS; 0 for an empty scene (every ray misses)

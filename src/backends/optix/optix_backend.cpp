@@ -456,11 +456,14 @@ class OptixBackendImpl final : public OptixBackend {
     per_launch = std::min(per_launch, std::max(count, 1u));
     const uint32_t launches = count == 0 ? 0 : (count + per_launch - 1) / per_launch;
     const uint64_t total = uint64_t(pixels) * count;
-    // The strategy's own raygen program.
+    // The raygen program of the strategy, with or without MIS.
     const int strategy = int(frame.integrator.strategy);
-    if (strategy < 0 || strategy >= kNumStrategies) throw std::logic_error("unknown strategy");
+    if (strategy < 0 || strategy >= kNumStrategies || int(frame.integrator.mis) >= kNumMisModes)
+      throw std::logic_error("unknown strategy or MIS mode");
     OptixShaderBindingTable sbt = sbt_;
-    sbt.raygenRecord = sbt_raygen_.dptr() + CUdeviceptr(strategy) * sizeof(EmptyRecord);
+    sbt.raygenRecord = sbt_raygen_.dptr() +
+                       CUdeviceptr(optix::raygen_index(frame.integrator.strategy, frame.integrator.mis)) *
+                           sizeof(EmptyRecord);
     // A W x H launch, or a 1D launch of pixels / pixels_per_thread threads
     // (see render_pixels in device_programs.cu).
     const bool launch_2d = launch_2d_ && pixels_per_thread_ == 1;
@@ -617,8 +620,8 @@ class OptixBackendImpl final : public OptixBackend {
       log[0] = 0;
       PN_OPTIX_LOG(optixProgramGroupCreate(context_, &d, 1, &pgo, log, &log_size, g), log);
     };
-    // One raygen program per strategy, named after the registry's enum, at the
-    // smallest feature level that covers the scene.
+    // The raygen programs of every strategy, without and with MIS, named after
+    // the registry's enum, at the smallest feature level that covers the scene.
     const uint32_t features = scene_.features();
     feature_level_ = optix::kNumFeatureLevels - 1;
     for (uint32_t l = 0; l < optix::kNumFeatureLevels; ++l)
@@ -627,20 +630,22 @@ class OptixBackendImpl final : public OptixBackend {
         break;
       }
     OptixProgramGroupDesc d = {};
-    static const char* const raygen_names[] = {
-#define PN_X(e, name, fn, nee, desc) "__raygen__" #e "_",
+    static const char* const strategy_enum_names[] = {
+#define PN_X(e, name, impl, nee, desc) #e,
         PN_STRATEGIES(PN_X)
 #undef PN_X
     };
-    raygen_.assign(kNumStrategies, nullptr);
-    for (int i = 0; i < kNumStrategies; ++i) {
-      const std::string entry = std::string(raygen_names[i]) + optix::kFeatureLevelNames[feature_level_];
-      d = {};
-      d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
-      d.raygen.module = module_;
-      d.raygen.entryFunctionName = entry.c_str();
-      make_group(d, &raygen_[i]);
-    }
+    raygen_.assign(optix::kNumRaygens, nullptr);
+    for (int i = 0; i < kNumStrategies; ++i)
+      for (Mis mis : {Mis::None, Mis::Power}) {
+        const std::string entry = std::string("__raygen__") + strategy_enum_names[i] + (mis == Mis::None ? "_" : "_mis_") +
+                                  optix::kFeatureLevelNames[feature_level_];
+        d = {};
+        d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
+        d.raygen.module = module_;
+        d.raygen.entryFunctionName = entry.c_str();
+        make_group(d, &raygen_[optix::raygen_index(Strategy(i), mis)]);
+      }
 
     d = {};
     d.kind = OPTIX_PROGRAM_GROUP_KIND_MISS;
@@ -763,7 +768,7 @@ class OptixBackendImpl final : public OptixBackend {
     v = SceneView();
     v.lights = lights_.as<Light>();
     v.num_lights = uint32_t(scene_.lights.size());
-    v.light_cdf = light_cdf_.as<float>();
+      v.selection.power_cdf = scene_.light_cdf.empty() ? nullptr : light_cdf_.as<float>();
     v.materials = materials_.as<Material>();
     v.num_materials = uint32_t(scene_.materials.size());
     v.textures = texture_views_.as<TextureView>();
@@ -1069,7 +1074,7 @@ class OptixBackendImpl final : public OptixBackend {
   Slot slots_[kSlots];
   OptixDeviceContext context_ = nullptr;
   OptixModule module_ = nullptr, sphere_is_module_ = nullptr;
-  std::vector<OptixProgramGroup> raygen_;  // one per strategy
+  std::vector<OptixProgramGroup> raygen_;  // by optix::raygen_index(strategy, mis)
   OptixProgramGroup miss_[optix::kNumMissPrograms] = {}, hit_[optix::kNumHitGroups] = {};
   OptixPipeline pipeline_ = nullptr;
   OptixShaderBindingTable sbt_ = {};

@@ -1,0 +1,25 @@
+// Command-line options that several subcommands share, declared once: the
+// integrator's choices (--strategy, --mis, --light-selection), which become
+// scene overrides (render.strategy=...) validated with the scene like any --set.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+namespace pn {
+
+struct IntegratorOptions {
+  std::string strategy, mis, light_selection;  // empty: the scene's
+};
+
+void add_integrator_options(CLI::App* sub, IntegratorOptions* o);
+
+// Appends "render.strategy=..." etc. for the options that were given.
+void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::string>* overrides);
+
+// "none, balance, power: what each does" lines for --help.
+std::string mis_help();
+
+}  // namespace pn
