@@ -95,28 +95,28 @@ json make_cornell_quad() {
   return doc;
 }
 
-// A cove light: a folded strip of six emissive triangles along the foot of the
-// back wall, 0.1 to 0.95 from it and 0.7 to 1.5 above a glossy floor, emitting
-// towards the wall and the floor. The wall and floor points nearest the strip
-// see it under a large solid angle and its folds under grazing angles, where
-// area sampling of polygons is at its worst; the rest of the room is lit by
-// what the wall and floor reflect.
+// A folded light panel: six emissive triangles (a pleated strip 3.56 wide)
+// hinged at the back wall 3.3 above the floor and rising to 3.6-4.2 at 1.3 from
+// the wall, emitting from its underside towards the room, the wall below it and
+// a glossy floor. Points of the wall just below the hinge see the panel under a
+// large solid angle and its pleats nearly edge-on: where area sampling of
+// polygons is at its worst (its 1 / d^2 and 1 / cos terms at their largest).
 json make_polygon_near() {
   json doc = cornell_box(0.25f, {0, 0, 0});
   doc["render"]["mis"] = "power";
   doc["lights"] = json::array();
   doc["materials"]["floor"] = {{"base_color", {0.45, 0.45, 0.47}}, {"metallic", 0}, {"roughness", 0.2}, {"specular", 0.5}};
-  doc["materials"]["cove"] = {{"albedo", {0, 0, 0}}, {"emission", {12.0, 10.5, 8.0}}};
+  doc["materials"]["panel"] = {{"albedo", {0, 0, 0}}, {"emission", {6.0, 5.3, 4.0}}};
   doc["shapes"][0]["material"] = "floor";
-  // Top row near the wall, bottom row further out and lower, both zig-zagging in z.
+  doc["shapes"].erase(6);  // the tall box: it would hide the lit wall
   const float xs[4] = {1.0f, 2.19f, 3.37f, 4.56f};
   json positions = json::array(), indices = json::array();
   for (int i = 0; i < 4; ++i) {
-    positions.push_back({xs[i], 1.5, kD - 0.1 - 0.3 * (i % 2)});         // 2i: top
-    positions.push_back({xs[i], 0.7, kD - 0.65 - 0.3 * ((i + 1) % 2)});  // 2i + 1: bottom
+    positions.push_back({xs[i], 3.3, kD - 0.05});                       // 2i: the hinge
+    positions.push_back({xs[i], i % 2 ? 4.2 : 3.6, kD - 1.3});          // 2i + 1: the pleated front edge
   }
-  // Wound so that the emitting (front) side faces the wall and the floor.
-  const Vec3 towards(0.f, -0.6f, 0.8f);
+  // Wound so that the emitting (front) side is the underside.
+  const Vec3 towards(0.f, -0.9f, -0.43f);
   auto vtx = [&](int k) {
     const json& p = positions[size_t(k)];
     return Vec3(p[0].get<float>(), p[1].get<float>(), p[2].get<float>());
@@ -129,7 +129,7 @@ json make_polygon_near() {
     add(2 * i, 2 * i + 1, 2 * i + 2);
     add(2 * i + 2, 2 * i + 1, 2 * i + 3);
   }
-  doc["shapes"].push_back({{"type", "mesh"}, {"positions", positions}, {"indices", indices}, {"material", "cove"}});
+  doc["shapes"].push_back({{"type", "mesh"}, {"positions", positions}, {"indices", indices}, {"material", "panel"}});
   return doc;
 }
 
@@ -281,7 +281,7 @@ const std::vector<BuiltinScene>& builtin_scenes() {
       {"cornell-near", "Cornell box with a small sphere light two radii from the back wall", make_cornell_near},
       {"occlusion", "sphere light behind two crossed layers of slats: most shadow rays are blocked", make_occlusion},
       {"cornell-quad", "the classic Cornell box with its original ceiling quad light", make_cornell_quad},
-      {"polygon-near", "a folded strip of emissive triangles close to the back wall and a glossy floor (cove light)",
+      {"polygon-near", "a pleated panel of emissive triangles hinged at the back wall, above a glossy floor",
        make_polygon_near},
       {"sponza", "Dabrovic's Sponza atrium (OBJ + MTL + textures) lit by a small sphere light above its open roof",
        make_sponza},
