@@ -9,17 +9,19 @@
 # CMAKE_CUDA_ARCHITECTURES=90, OptiX_ROOT from the environment or .optix/).
 # Then:
 #   1. the unit tests (ctest);
-#   2. every built-in scene at low resolution with strategies area and
-#      solid-angle, rendered by both backends with independent seeds (CPU seed
-#      0, GPU seed 1), each pair compared by `penumbra compare` (per-pixel
+#   2. every built-in scene at low resolution with every technique (strategy
+#      x MIS mode; GPU_CHECK_TECHNIQUES), rendered by both backends with
+#      independent seeds (CPU seed 0, GPU seed 1), each pair compared by
+#      `penumbra compare` (per-pixel
 #      differences within the combined standard errors; mean relative
 #      difference under 1%, or under 4 standard errors of the image mean where
-#      that is larger: glossy's sun glints make its mean noisier); plus GPU renders with the CPU's own seed of the
-#      first scene and of the real-scene checks (GPU_CHECK_REAL_SCENES, default
+#      that is larger: glossy's sun glints make its mean noisier); plus GPU renders with the CPU's own seed of
+#      a few techniques and of the real-scene checks (GPU_CHECK_REAL_SCENES, default
 #      "glossy sponza": textures, environment, GGX, alpha masks). A scene of that
 #      list that `penumbra scenes` does not list is skipped with a note;
-#   3. compute-sanitizer --tool memcheck on short OptiX renders (cornell-sphere
-#      and the real-scene checks that exist): 0 errors.
+#   3. compute-sanitizer --tool memcheck on short OptiX renders with
+#      projected-solid-angle and MIS (cornell-sphere, polygon-near and the
+#      real-scene checks that exist): 0 errors.
 # Prints PASS/FAIL per step and a summary; exits 0 only if everything passed.
 #
 # Environment: GPU_CHECK_OUT (output folder, default BUILD_DIR/gpu_check),
@@ -75,11 +77,18 @@ else
   record "unit tests (ctest): none built" 1
 fi
 
-# 2. CPU and GPU images.
+# 2. CPU and GPU images: every built-in scene, every technique (strategy x MIS mode).
 echo "== CPU vs GPU at ${width}x${height}, $spp spp"
-render() {  # render SCENE STRATEGY BACKEND SEED NAME
-  "$penumbra" render "$1" --strategy "$2" --backend "$3" --seed "$4" --width "$width" --height "$height" \
-    --spp "$spp" -o "$out/$5.exr" --variance "$out/$5_var.exr" >"$out/$5.log" 2>&1
+render() {  # render SCENE STRATEGY MIS BACKEND SEED NAME [extra args...]
+  local scene=$1 strategy=$2 mis=$3 backend=$4 seed=$5 name=$6
+  shift 6
+  "$penumbra" render "$scene" --strategy "$strategy" --mis "$mis" --backend "$backend" --seed "$seed" \
+    --width "$width" --height "$height" --spp "$spp" -o "$out/$name.exr" --variance "$out/${name}_var.exr" "$@" \
+    >"$out/$name.log" 2>&1
+}
+compare_pair() {  # compare_pair CPU_NAME GPU_NAME LABEL
+  "$penumbra" compare "$out/$1.exr" "$out/${1}_var.exr" "$out/$2.exr" "$out/${2}_var.exr" | tee "$out/${2}_compare.txt"
+  record "$3" "${PIPESTATUS[0]}"
 }
 scenes=$("$penumbra" scenes | awk '{print $1}')
 listed() { grep -qx -- "$1" <<<"$scenes"; }
@@ -88,45 +97,54 @@ for scene in $real_scenes; do
   if listed "$scene"; then present_real+=("$scene")
   else echo "skip: $scene is not a built-in scene of this build (penumbra scenes does not list it)"; fi
 done
+techniques=${GPU_CHECK_TECHNIQUES:-"area:none area:balance area:power solid-angle:none solid-angle:balance solid-angle:power projected-solid-angle:none projected-solid-angle:balance projected-solid-angle:power bsdf:none"}
 for scene in $scenes; do
-  for strategy in area solid-angle; do
-    cpu=${scene}_${strategy}_cpu
-    gpu=${scene}_${strategy}_optix
-    if ! render "$scene" "$strategy" cpu 0 "$cpu"; then
-      cat "$out/$cpu.log"; record "$scene $strategy: cpu render" 1; continue
+  for t in $techniques; do
+    strategy=${t%%:*} mis=${t##*:}
+    extra=()
+    # Light sampling alone is too heavy-tailed for a z-test on glossy's 0.2
+    # roughness (tests/test_render.cpp, MisAgrees): compare it at 0.6.
+    [[ $scene == glossy && $mis == none ]] && extra=(--set defaults.roughness=0.6)
+    cpu=${scene}_${strategy}_${mis}_cpu
+    gpu=${scene}_${strategy}_${mis}_optix
+    if ! render "$scene" "$strategy" "$mis" cpu 0 "$cpu" "${extra[@]}"; then
+      cat "$out/$cpu.log"; record "$scene $strategy+$mis: cpu render" 1; continue
     fi
-    if ! render "$scene" "$strategy" optix 1 "$gpu"; then
-      cat "$out/$gpu.log"; record "$scene $strategy: optix render" 1; continue
+    if ! render "$scene" "$strategy" "$mis" optix 1 "$gpu" "${extra[@]}"; then
+      cat "$out/$gpu.log"; record "$scene $strategy+$mis: optix render" 1; continue
     fi
-    "$penumbra" compare "$out/$cpu.exr" "$out/${cpu}_var.exr" "$out/$gpu.exr" "$out/${gpu}_var.exr" \
-      | tee "$out/${scene}_${strategy}_compare.txt"
-    record "$scene $strategy: cpu == optix" "${PIPESTATUS[0]}"
+    compare_pair "$cpu" "$gpu" "$scene $strategy+$mis: cpu == optix"
   done
 done
 # Same seed: the GPU traces the very paths the CPU traced (same RNG streams).
 first=$(echo "$scenes" | head -n 1)
-for scene in "$first" "${present_real[@]}"; do
-  [[ -f $out/${scene}_solid-angle_cpu.exr ]] || continue  # its CPU render failed above
-  if render "$scene" solid-angle optix 0 "${scene}_solid-angle_optix_seed0"; then
-    "$penumbra" compare "$out/${scene}_solid-angle_cpu.exr" "$out/${scene}_solid-angle_cpu_var.exr" \
-      "$out/${scene}_solid-angle_optix_seed0.exr" "$out/${scene}_solid-angle_optix_seed0_var.exr" \
-      | tee "$out/${scene}_same_seed_compare.txt"
-    record "$scene solid-angle, same seed: cpu == optix" "${PIPESTATUS[0]}"
+for st in "$first:solid-angle:none" "$first:projected-solid-angle:power" "polygon-near:solid-angle:power" \
+          "cornell-quad:projected-solid-angle:balance" $(for r in "${present_real[@]}"; do echo "$r:solid-angle:power"; done); do
+  IFS=: read -r scene strategy mis <<<"$st"
+  listed "$scene" || continue
+  cpu=${scene}_${strategy}_${mis}_cpu
+  [[ -f $out/$cpu.exr ]] || continue  # its CPU render failed above
+  extra=()
+  [[ $scene == glossy && $mis == none ]] && extra=(--set defaults.roughness=0.6)
+  if render "$scene" "$strategy" "$mis" optix 0 "${cpu}_optix_seed0" "${extra[@]}"; then
+    compare_pair "$cpu" "${cpu}_optix_seed0" "$scene $strategy+$mis, same seed: cpu == optix"
   else
-    cat "$out/${scene}_solid-angle_optix_seed0.log"
-    record "$scene solid-angle, same seed: optix render" 1
+    cat "$out/${cpu}_optix_seed0.log"
+    record "$scene $strategy+$mis, same seed: optix render" 1
   fi
 done
 
 # 3. Memory checker on a short render.
 echo "== compute-sanitizer --tool memcheck"
 if command -v compute-sanitizer >/dev/null 2>&1; then
-  for scene in ${GPU_CHECK_MEMCHECK_SCENES:-cornell-sphere ${present_real[*]}}; do
+  for scene in ${GPU_CHECK_MEMCHECK_SCENES:-cornell-sphere polygon-near ${present_real[*]}}; do
     log=$out/memcheck_$scene.log
     [[ $scene == cornell-sphere ]] && log=$out/memcheck.log
+    # The sampling code that runs most: projected-solid-angle with MIS (the
+    # spherical polygons, the projected caps and every pdf).
     compute-sanitizer --tool memcheck --leak-check full --error-exitcode 9 \
-      "$penumbra" render "$scene" --backend optix --width 64 --height 36 --spp 4 -o "$out/memcheck_$scene.exr" \
-      >"$log" 2>&1
+      "$penumbra" render "$scene" --backend optix --strategy projected-solid-angle --mis power --width 64 --height 36 \
+      --spp 4 -o "$out/memcheck_$scene.exr" >"$log" 2>&1
     st=$?
     grep -E "ERROR SUMMARY|LEAK SUMMARY" "$log" || tail -n 5 "$log"
     grep -q "ERROR SUMMARY: 0 errors" "$log" || st=1

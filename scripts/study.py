@@ -50,6 +50,28 @@ PRESETS = {
                   sweep=dict(width=24, height=24, reference_spp=1024, max_spp=64, seeds=2),
                   radii=[0.05, 0.4], near_k=[2, 8], slat_widths=[0.08, 0.2]),
 }
+# The light-sampling lab (issue 10): every strategy x MIS mode on the lab's
+# scenes, and its sweeps. Sizes per preset.
+LAB_PRESETS = {
+    "full": dict(headline=dict(width=960, height=540, reference_spp=16384, max_spp=256, seeds=2),
+                 sweep=dict(width=480, height=270, reference_spp=4096, max_spp=128, seeds=2),
+                 radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
+                 roughness=[0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0], panel_offsets=[0.0, 0.2, 0.5, 1.0, 2.0]),
+    "gpu": dict(headline=dict(width=640, height=360, reference_spp=8192, max_spp=256, seeds=2),
+                sweep=dict(width=320, height=180, reference_spp=4096, max_spp=128, seeds=2),
+                radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
+                roughness=[0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0], panel_offsets=[0.0, 0.2, 0.5, 1.0, 2.0]),
+    "smoke": dict(headline=dict(width=24, height=24, reference_spp=2048, max_spp=64, seeds=2),
+                  sweep=dict(width=16, height=16, reference_spp=1024, max_spp=32, seeds=2),
+                  radii=[0.05, 0.4], near_k=[2, 8], roughness=[0.05, 0.6], panel_offsets=[0.0, 1.0]),
+}
+LAB_SCENES = ["cornell-sphere", "cornell-near", "occlusion", "cornell-quad", "polygon-near", "glossy"]
+LAB_STRATEGIES = ["area", "solid-angle", "projected-solid-angle", "bsdf"]
+MIS_MODES = ["none", "balance", "power"]
+# Technique names as `penumbra converge` writes them: "area" (MIS none), "area+power".
+LAB_TECHNIQUES = [st if m == "none" else f"{st}+{m}" for st in LAB_STRATEGIES[:3] for m in MIS_MODES] + ["bsdf"]
+LAB_COLORS = {"area": "#d62728", "solid-angle": "#1f77b4", "projected-solid-angle": "#2ca02c", "bsdf": "#7f7f7f"}
+LAB_STYLES = {"none": "o-", "balance": "s:", "power": "^--"}
 HEADLINE = ["cornell-sphere", "cornell-near", "occlusion"]
 THESIS_TABLE_41 = {1: (0.245, 0.082), 4: (0.128, 0.035), 16: (0.065, 0.012), 64: (0.031, 0.004)}
 THESIS_TABLE_42 = {"Cornell Box": (4.2, 4.5), "Sponza Crytek": (11.8, 12.4)}
@@ -59,24 +81,29 @@ def log(msg):
     print(msg, file=sys.stderr, flush=True)
 
 
-def converge(args, name, scene, cfg, sets=()):
-    out = os.path.join(args.out, "runs", name)
+def converge(args, name, scene, cfg, sets=(), strategies=STRATEGIES, mis=("none",), out_dir=None):
+    out = os.path.join(out_dir or args.out, "runs", name)
     cmd = [args.penumbra, "converge", scene, "--out", out, "--backend", args.backend,
            "--width", str(cfg["width"]), "--height", str(cfg["height"]),
            "--reference-spp", str(cfg["reference_spp"]), "--max-spp", str(cfg["max_spp"]),
-           "--seeds", str(cfg["seeds"]), "--strategies", ",".join(STRATEGIES)]
+           "--seeds", str(cfg["seeds"]), "--strategies", ",".join(strategies), "--mis", ",".join(mis)]
     if args.cache:
         cmd += ["--cache", args.cache]
     for s in sets:
         cmd += ["--set", s]
     if not args.report_only:
         log("study: " + " ".join(cmd))
-        subprocess.run(cmd, check=True)
+        if subprocess.run(cmd).returncode != 0:
+            raise RunFailed(f"penumbra converge failed for {name} (its error is above)")
     with open(os.path.join(out, "summary.json")) as f:
         summary = json.load(f)
     summary["run_dir"] = out
     summary["name"] = name
     return summary
+
+
+class RunFailed(Exception):
+    pass
 
 
 def light_distance(center):
@@ -327,6 +354,262 @@ def write_report(args, preset, head, radius_runs, near_runs, slat_runs, radii, n
                    "radii": radii, "near_k": near_k, "slat_widths": widths}, f, indent=1)
 
 
+# --- The light-sampling lab ----------------------------------------------------
+
+def technique_parts(t):
+    st, _, m = t.partition("+")
+    return st, (m or "none")
+
+
+def fit_time_to(summary, technique, threshold, key="fit_rmse"):
+    """ms for `technique` to reach `threshold` along its fitted line (inf if it never does)."""
+    js = summary["strategies"].get(technique)
+    if not js or key not in js:
+        return math.inf
+    f = js[key]
+    if not f["slope"] < 0:
+        return math.inf
+    spp = math.exp((math.log(threshold) - f["intercept"]) / f["slope"])
+    return spp * js["ms_per_spp"]
+
+
+def lab_threshold(summary):
+    """A per-scene RMSE target every technique reaches or nearly reaches: the
+    median over techniques of the RMSE at the largest spp."""
+    last = sorted(js["points"][-1]["rmse"] for js in summary["strategies"].values())
+    return last[len(last) // 2]
+
+
+def lab_speedups(summary, key="fit_rmse"):
+    """Time-to-quality of each technique relative to area with MIS none (> 1: faster)."""
+    thr = lab_threshold(summary)
+    base = fit_time_to(summary, "area", thr, key)
+    return {t: base / fit_time_to(summary, t, thr, key) for t in summary["strategies"]}
+
+
+def lab_efficiency(summary, t, key="efficiency"):
+    return summary["strategies"][t][key] / summary["strategies"]["area"][key]
+
+
+def lab_run(args, lab, out_dir):
+    """Every technique on every lab scene, then the sweeps. Scenes whose model
+    data is missing on this machine (glossy: ../shared/scenes) are left out."""
+    h, sw = lab["headline"], lab["sweep"]
+    head = []
+    scenes = LAB_SCENES if not args.scene else [s for s in LAB_SCENES if s in args.scene]
+    if args.only != "sweeps":
+        for sc in scenes:
+            try:
+                head.append(converge(args, sc, sc, h, strategies=LAB_STRATEGIES, mis=MIS_MODES, out_dir=out_dir))
+            except (RunFailed, FileNotFoundError) as e:
+                if sc != "glossy":
+                    raise
+                log(f"study: leaving {sc} out: {e}")
+    sweeps = {}
+    if args.only != "headline":
+        three = LAB_STRATEGIES[:3]
+        sweeps["radius"] = [converge(args, f"radius-{r}", "cornell-sphere", sw, [f"light.radius={r}"], three, out_dir=out_dir)
+                            for r in lab["radii"]]
+        sweeps["distance"] = [converge(args, f"near-{k}", "cornell-near", sw, [f"light.center=[1.6,3.2,{BOX[2] - k * 0.15:.4f}]"],
+                                       three, out_dir=out_dir) for k in lab["near_k"]]
+        sweeps["panel"] = [converge(args, f"panel-{o}", "polygon-near", sw, [f"defaults.panel_z={-o}"], three,
+                                    out_dir=out_dir) for o in lab["panel_offsets"]]
+        try:
+            sweeps["roughness"] = [converge(args, f"roughness-{r}", "glossy", sw, [f"defaults.roughness={r}"],
+                                            ["solid-angle", "bsdf"], MIS_MODES, out_dir=out_dir) for r in lab["roughness"]]
+        except (RunFailed, FileNotFoundError) as e:
+            log(f"study: leaving the roughness sweep out: {e}")
+    return head, sweeps
+
+
+def plot_lab_convergence(summary, path):
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for t, js in summary["strategies"].items():
+        st, m = technique_parts(t)
+        pts = js["points"]
+        spp = np.array([p["spp"] for p in pts])
+        rmse = np.array([p["rmse"] for p in pts])
+        ms = np.array([p["time_ms"] for p in pts])
+        kw = dict(color=LAB_COLORS[st], ms=3, lw=1, label=t)
+        axes[0].loglog(spp, rmse, LAB_STYLES[m], **kw)
+        axes[1].loglog(ms, rmse, LAB_STYLES[m], **kw)
+    axes[0].set_xlabel("samples per pixel")
+    axes[1].set_xlabel(f"render time (ms, {summary['backend']})")
+    for ax in axes:
+        ax.set_ylabel("RMSE")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[1].legend(fontsize=6, ncol=2)
+    fig.suptitle(f"{summary['scene']} at {summary['width']}x{summary['height']}: every technique")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_lab_sweep(xs, runs, techniques, xlabel, title, path, log_x=True):
+    fig, ax = plt.subplots(figsize=(5.8, 3.9))
+    for t in techniques:
+        st, m = technique_parts(t)
+        ax.plot(xs, [lab_efficiency(r, t) for r in runs], LAB_STYLES[m], color=LAB_COLORS[st], label=t)
+    ax.axhline(1.0, color="grey", lw=0.8, ls=":")
+    if log_x:
+        ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("efficiency relative to area (MIS none)")
+    ax.set_title(title, fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_lab_report(args, lab, head, sweeps, out_dir):
+    fig_dir = os.path.join(out_dir, "figures")
+    os.makedirs(fig_dir, exist_ok=True)
+    env = head[0]
+    info = env.get("device_info", {})
+    lines = []
+    w = lines.append
+    h, s = lab["headline"], lab["sweep"]
+    w("# The light-sampling lab: every strategy and MIS mode, at equal time\n")
+    w(f"Generated by `python3 scripts/study.py --preset {args.preset} --part lab` on {datetime.date.today().isoformat()}, "
+      f"penumbra commit `{env.get('git_commit', 'unknown')}`, backend **{env['backend']}** ({env['device']}"
+      + "".join(f", {k} {v}" for k, v in info.items()) + ").\n")
+    w("## What was measured\n")
+    w(f"- Scenes: {', '.join(r['scene'] for r in head)} at {h['width']}x{h['height']}, max depth 8, ground truth "
+      f"{h['reference_spp']} spp (solid-angle with the power heuristic, its own seed), renders at 1, 2, 4, ..., "
+      f"{h['max_spp']} spp with {h['seeds']} independent seeds per point.")
+    w("- Techniques: the strategies `area`, `solid-angle`, `projected-solid-angle`, each with `--mis none` (light "
+      "sampling only: the thesis's estimator), `balance` and `power` (one light and one BSDF sample per vertex, "
+      "Veach's heuristics), and `bsdf` (no light sampling). Named `area`, `area+balance`, `area+power`, ...")
+    w("- Time: GPU time of the launches (CUDA events) on the GPU, wall time on the CPU; per point the mean over seeds.")
+    w("- **Efficiency** = 1 / (MSE x time) at the largest spp, relative to `area` (the larger, the better at equal "
+      "time). **Time to quality**: time to reach the scene's RMSE target along each technique's fitted log-log line, "
+      "relative to `area`; the target is the median over techniques of the RMSE at the largest spp, so that it is "
+      "reached or nearly reached by all. RMSE on linear, unclamped radiance over all pixels (thesis eq. 4.1).")
+    w(f"- Sweeps at {s['width']}x{s['height']}, ground truth {s['reference_spp']} spp, up to {s['max_spp']} spp, "
+      f"{s['seeds']} seeds.\n")
+    w("Every measurement: `runs/*/measurements.csv`, fits and settings: `runs/*/summary.json`.\n")
+
+    w("## Time to quality relative to `area` (MIS none)\n")
+    cols = [t for t in LAB_TECHNIQUES if any(t in r["strategies"] for r in head)]
+    w("| scene | RMSE target | " + " | ".join(f"`{t}`" for t in cols) + " |")
+    w("| --- | ---: |" + " ---: |" * len(cols))
+    for r in head:
+        sp = lab_speedups(r)
+        w(f"| {r['scene']} | {lab_threshold(r):.4f} | " + " | ".join(f"{fmt(sp.get(t, float('nan')))}x" for t in cols) + " |")
+    w("\n## Efficiency (1 / (MSE x time)) relative to `area`\n")
+    w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
+    w("| --- |" + " ---: |" * len(cols))
+    for r in head:
+        w(f"| {r['scene']} | " + " | ".join(f"{fmt(lab_efficiency(r, t))}" for t in cols) + " |")
+    w("\n## Cost: ms per spp\n")
+    w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
+    w("| --- |" + " ---: |" * len(cols))
+    for r in head:
+        w(f"| {r['scene']} | " + " | ".join(f"{r['strategies'][t]['ms_per_spp']:.3f}" for t in cols) + " |")
+    w("\n## Per scene: RMSE at the largest spp, slopes\n")
+    for r in head:
+        w(f"**{r['scene']}** ({r['width']}x{r['height']}; reference noise adds RMSE {r['reference']['rmse_floor']:.4f} "
+          "in quadrature)\n")
+        w("| technique | ms/spp | RMSE @ " + str(r["strategies"]["area"]["points"][-1]["spp"]) +
+          " spp | slope | efficiency vs area | time to quality vs area |")
+        w("| --- | ---: | ---: | ---: | ---: | ---: |")
+        sp = lab_speedups(r)
+        for t in cols:
+            js = r["strategies"][t]
+            w(f"| `{t}` | {js['ms_per_spp']:.3f} | {js['points'][-1]['rmse']:.4f} | {js['fit_rmse']['slope']:.3f} | "
+              f"{fmt(lab_efficiency(r, t))} | {fmt(sp[t])}x |")
+        p = f"lab_convergence_{r['scene']}.png"
+        plot_lab_convergence(r, os.path.join(fig_dir, p))
+        w(f"\n![{r['scene']}](figures/{p})\n")
+
+    three = ["area", "solid-angle", "projected-solid-angle"]
+    def sweep_table(runs, label, values, techniques):
+        w("| " + label + " | " + " | ".join(f"`{t}`" for t in techniques) + " |")
+        w("|" + " ---: |" * (len(techniques) + 1))
+        for v, r in zip(values, runs):
+            w(f"| {v} | " + " | ".join(fmt(lab_efficiency(r, t)) for t in techniques) + " |")
+        w("")
+    if sweeps.get("radius"):
+        rd = [r / light_distance((2.78, 4.4, 2.8)) for r in lab["radii"]]
+        w("## Radius sweep (cornell-sphere), efficiency relative to area\n")
+        plot_lab_sweep(rd, sweeps["radius"], three, "r / d", "cornell-sphere: radius", os.path.join(fig_dir, "lab_sweep_radius.png"))
+        w("![radius](figures/lab_sweep_radius.png)\n")
+        sweep_table(sweeps["radius"], "radius", [str(x) for x in lab["radii"]], three)
+    if sweeps.get("distance"):
+        w("## Distance sweep (cornell-near), efficiency relative to area\n")
+        plot_lab_sweep([1 / k for k in lab["near_k"]], sweeps["distance"], three, "r / d", "cornell-near: distance",
+                       os.path.join(fig_dir, "lab_sweep_distance.png"))
+        w("![distance](figures/lab_sweep_distance.png)\n")
+        sweep_table(sweeps["distance"], "d / r", [str(k) for k in lab["near_k"]], three)
+    if sweeps.get("panel"):
+        w("## Polygon distance sweep (polygon-near, the panel moved away from the back wall), efficiency relative to area\n")
+        xs = [max(o, 0.05) for o in lab["panel_offsets"]]
+        plot_lab_sweep(xs, sweeps["panel"], three, "panel offset from the wall (0 plotted at 0.05)", "polygon-near: distance",
+                       os.path.join(fig_dir, "lab_sweep_panel.png"))
+        w("![panel](figures/lab_sweep_panel.png)\n")
+        sweep_table(sweeps["panel"], "offset", [str(o) for o in lab["panel_offsets"]], three)
+    if sweeps.get("roughness"):
+        w("## Roughness sweep (glossy): MIS against the single techniques\n")
+        ts = ["solid-angle", "bsdf", "solid-angle+balance", "solid-angle+power"]
+        fig, ax = plt.subplots(figsize=(5.8, 3.9))
+        for t in ts:
+            st, m = technique_parts(t)
+            ax.plot(lab["roughness"], [r["strategies"][t]["efficiency"] for r in sweeps["roughness"]], LAB_STYLES[m],
+                    color=LAB_COLORS[st], label=t)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("roughness")
+        ax.set_ylabel("efficiency 1 / (MSE x ms)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(os.path.join(fig_dir, "lab_sweep_roughness.png"), dpi=110)
+        plt.close(fig)
+        w("![roughness](figures/lab_sweep_roughness.png)\n")
+        w("| roughness | " + " | ".join(f"`{t}`" for t in ts) + " | power / best single |")
+        w("|" + " ---: |" * (len(ts) + 2))
+        for x, r in zip(lab["roughness"], sweeps["roughness"]):
+            e = {t: r["strategies"][t]["efficiency"] for t in ts}
+            best = max(e["solid-angle"], e["bsdf"])
+            w(f"| {x} | " + " | ".join(f"{e[t]:.4g}" for t in ts) + f" | {fmt(e['solid-angle+power'] / best)}x |")
+        w("")
+    if os.path.exists(os.path.join(out_dir, "DISCUSSION.md")):
+        w("## Discussion\n")
+        w("Which technique wins where, by how much, and why: [DISCUSSION.md](DISCUSSION.md).\n")
+    with open(os.path.join(out_dir, "README.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    with open(os.path.join(out_dir, "lab.json"), "w") as f:
+        json.dump({"headline": head, "sweeps": sweeps, "preset": lab}, f, indent=1)
+
+
+def lab_check(head):
+    """The CI smoke test's assertions on the lab: -1/2 slopes for the light-sampling
+    techniques, and spherical polygons beating area on polygon-near."""
+    failures = []
+    for r in head:
+        if r["scene"] == "glossy":
+            continue  # at smoke sizes its reference's own noise is reached within a few spp
+        for t, js in r["strategies"].items():
+            if t == "bsdf":
+                continue  # too noisy at smoke sizes for a slope
+            slope = js["fit_rmse"]["slope"]
+            if not -0.75 <= slope <= -0.3:
+                failures.append(f"{r['scene']} {t}: slope {slope:.3f} outside -0.5 +- 0.25")
+    pn = [r for r in head if r["scene"] == "polygon-near"]
+    if not pn:
+        failures.append("polygon-near was not run")
+    for r in pn:
+        if not lab_efficiency(r, "solid-angle") > 1.0:
+            failures.append(f"polygon-near: solid-angle does not beat area (efficiency {lab_efficiency(r, 'solid-angle'):.3f})")
+    for f in failures:
+        log("study: LAB CHECK FAILED: " + f)
+    return not failures
+
+
 def check(head):
     """The CI smoke test's assertions: -1/2 slopes, and solid-angle wins on the near light."""
     failures = []
@@ -345,6 +628,30 @@ def check(head):
     return not failures
 
 
+def run_lab(args):
+    """The lab part: runs, report and (with --check) its assertions. False: a check failed."""
+    lab = LAB_PRESETS[args.preset]
+    out_dir = os.path.join(args.out, "lab")
+    os.makedirs(out_dir, exist_ok=True)
+    if args.report_only:
+        runs = os.path.join(out_dir, "runs")
+        head = [json.load(open(os.path.join(runs, sc, "summary.json"))) | {"run_dir": os.path.join(runs, sc), "name": sc}
+                for sc in LAB_SCENES if os.path.exists(os.path.join(runs, sc, "summary.json"))]
+        sweeps = {}
+        for key, names in (("radius", [f"radius-{r}" for r in lab["radii"]]), ("distance", [f"near-{k}" for k in lab["near_k"]]),
+                           ("panel", [f"panel-{o}" for o in lab["panel_offsets"]]),
+                           ("roughness", [f"roughness-{r}" for r in lab["roughness"]])):
+            paths = [os.path.join(runs, n, "summary.json") for n in names]
+            if all(os.path.exists(p) for p in paths):
+                sweeps[key] = [json.load(open(p)) for p in paths]
+    else:
+        head, sweeps = lab_run(args, lab, out_dir)
+    if head and not args.no_report:
+        write_lab_report(args, lab, head, sweeps, out_dir)
+        log(f"study: wrote {os.path.join(out_dir, 'README.md')}")
+    return not (args.check and head and not lab_check(head))
+
+
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -353,8 +660,11 @@ def main():
     ap.add_argument("--penumbra", default=os.path.join(here, "..", "build", "penumbra"), help="the executable")
     ap.add_argument("--backend", default="auto", choices=["auto", "cpu", "optix"])
     ap.add_argument("--cache", help="ground-truth cache folder (default: penumbra's)")
+    ap.add_argument("--part", choices=["thesis", "lab", "all"], default="all",
+                    help="thesis: chapter 4 (area against solid-angle, docs/results/README.md); lab: every strategy and "
+                         "MIS mode on the lab's scenes (docs/results/lab/README.md); all: both")
     ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
-    ap.add_argument("--scene", action="append", choices=HEADLINE,
+    ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES)),
                     help="run only this headline scene (repeatable): split a long study over several GPU calls, "
                          "then --report-only over the merged runs")
     ap.add_argument("--check", action="store_true", help="assert slopes and the near-light win (CI smoke test)")
@@ -373,7 +683,12 @@ def main():
         sys.exit(77)  # CTest's skip code: a machine without them (CI installs them) skips the smoke test
     preset = PRESETS[args.preset]
     os.makedirs(args.out, exist_ok=True)
-    scenes = HEADLINE if args.report_only or not args.scene else args.scene
+    ok = True
+    if args.part in ("lab", "all"):
+        ok = run_lab(args) and ok
+    if args.part == "lab":
+        sys.exit(0 if ok else 1)
+    scenes = HEADLINE if args.report_only or not args.scene else [s for s in args.scene if s in HEADLINE]
     head = [converge(args, s, s, preset["headline"]) for s in scenes] if args.only != "sweeps" else []
     radius_runs, near_runs, slat_runs = [], [], []
     if args.only != "headline":
@@ -392,6 +707,8 @@ def main():
                      preset["slat_widths"])
         log(f"study: wrote {os.path.join(args.out, 'README.md')}")
     if args.check and head and not check(head):
+        ok = False
+    if not ok:
         sys.exit(1)
     if not args.keep_runs:
         # Keep what the report needs to stay reproducible and small: CSV, JSON, PNG.

@@ -129,7 +129,10 @@ json make_polygon_near() {
     add(2 * i, 2 * i + 1, 2 * i + 2);
     add(2 * i + 2, 2 * i + 1, 2 * i + 3);
   }
-  doc["shapes"].push_back({{"type", "mesh"}, {"positions", positions}, {"indices", indices}, {"material", "panel"}});
+  // defaults.panel_z moves the panel along z (negative: away from the back wall).
+  doc["defaults"] = {{"panel_z", 0}};
+  doc["shapes"].push_back({{"type", "mesh"}, {"positions", positions}, {"indices", indices}, {"material", "panel"},
+                           {"transform", {{"translate", {0, 0, "$panel_z"}}}}});
   return doc;
 }
 
