@@ -28,7 +28,9 @@
 # GPU_CHECK_WIDTH/HEIGHT/SPP (default 128x72, 1024 spp: at 256 spp the image
 # mean of cornell-near under area sampling has a 0.6% standard error, too close
 # to the 1% bound on the mean difference), GPU_CHECK_REAL_SCENES,
-# GPU_CHECK_MEMCHECK_SCENES (default cornell-sphere and the real scenes),
+# GPU_CHECK_MEMCHECK_SCENES (default cornell-sphere, polygon-near and the real scenes),
+# GPU_CHECK_SCENES (default: every built-in scene), GPU_CHECK_TECHNIQUES,
+# GPU_CHECK_UNIT_TESTS=0 (skip ctest),
 # OptiX_ROOT, PENUMBRA_SCENES (where sponza/ and models/ are: scene/scene.h).
 set -uo pipefail
 
@@ -67,7 +69,9 @@ echo "== $("$penumbra" render cornell-sphere --backend optix --width 8 --height 
 
 # 1. Unit tests.
 echo "== unit tests"
-if [[ -f $build/CTestTestfile.cmake ]]; then
+if [[ ${GPU_CHECK_UNIT_TESTS:-1} == 0 ]]; then
+  echo "skipped (GPU_CHECK_UNIT_TESTS=0)"
+elif [[ -f $build/CTestTestfile.cmake ]]; then
   ctest --test-dir "$build" --output-on-failure -j "$(nproc)" >"$out/ctest.log" 2>&1
   st=$?
   tail -n 3 "$out/ctest.log"
@@ -90,7 +94,7 @@ compare_pair() {  # compare_pair CPU_NAME GPU_NAME LABEL
   "$penumbra" compare "$out/$1.exr" "$out/${1}_var.exr" "$out/$2.exr" "$out/${2}_var.exr" | tee "$out/${2}_compare.txt"
   record "$3" "${PIPESTATUS[0]}"
 }
-scenes=$("$penumbra" scenes | awk '{print $1}')
+scenes=$(if [[ -n ${GPU_CHECK_SCENES:-} ]]; then tr ' ' '\n' <<<"$GPU_CHECK_SCENES"; else "$penumbra" scenes | awk '{print $1}'; fi)
 listed() { grep -qx -- "$1" <<<"$scenes"; }
 present_real=()
 for scene in $real_scenes; do

@@ -86,34 +86,44 @@ struct AreaSampling {
 
 // --- Spherical polygons: the shared machinery of solid-angle and projected-solid-angle
 
-// The solid angle of a quad or triangle light at x as spherical polygons: one
-// spherical rectangle, one spherical triangle, or (a parallelogram that is not
-// a rectangle) two spherical triangles (p, p+e1, p+e1+e2) and (p, p+e1+e2, p+e2).
+// The solid angle of a quad or triangle light at x (float, Van Oosterom &
+// Strackee per triangle): what decides between spherical and area sampling,
+// and the density 1 / Omega both sample() and pdf() report.
+PN_FN float planar_light_solid_angle(const Light& l, Vec3 x) {
+  const Vec3 a = l.p - x, b = a + l.e1, c = a + l.e2;
+  if (l.type == LightType::Triangle) return triangle_solid_angle(a, b, c);
+  const Vec3 d = b + l.e2;  // the far corner
+  return triangle_solid_angle(a, b, d) + triangle_solid_angle(a, d, c);
+}
+
+// The same light as spherical polygons for the samplers: one spherical
+// rectangle, one spherical triangle, or (a parallelogram that is not a
+// rectangle) two spherical triangles (p, p+e1, p+e1+e2) and (p, p+e1+e2, p+e2).
 struct SphericalLight {
   enum Kind : uint32_t { kRectangle, kTriangle, kTwoTriangles } kind = kTriangle;
   SphericalRectangle rect;
   SphericalTriangle tri[2];
-  float area = 0.f;  // total solid angle
-  // Whether the spherical samplers apply (else: area sampling, see above).
-  PN_HD bool usable() const { return area >= kMinSphericalSolidAngle && area <= kMaxSphericalSolidAngle; }
+  float area = 0.f;  // total solid angle: planar_light_solid_angle()
 };
 
-PN_FN SphericalLight make_spherical_light(const Light& l, Vec3 x) {
+PN_FN bool spherical_sampling_applies(float solid_angle) {
+  return solid_angle >= kMinSphericalSolidAngle && solid_angle <= kMaxSphericalSolidAngle;
+}
+
+PN_FN SphericalLight make_spherical_light(const Light& l, Vec3 x, float solid_angle) {
   SphericalLight s;
+  s.area = solid_angle;
   if (l.type == LightType::Triangle) {
     s.kind = SphericalLight::kTriangle;
     s.tri[0] = make_spherical_triangle(x, l.p, l.p + l.e1, l.p + l.e2);
-    s.area = s.tri[0].area;
   } else if (quad_is_rectangle(l)) {
     s.kind = SphericalLight::kRectangle;
     s.rect = make_spherical_rectangle(x, l.p, l.e1, l.e2);
-    s.area = s.rect.area;
   } else {
     s.kind = SphericalLight::kTwoTriangles;
     const Vec3 p2 = l.p + l.e1 + l.e2;
     s.tri[0] = make_spherical_triangle(x, l.p, l.p + l.e1, p2);
     s.tri[1] = make_spherical_triangle(x, l.p, p2, l.p + l.e2);
-    s.area = s.tri[0].area + s.tri[1].area;
   }
   return s;
 }
@@ -180,9 +190,10 @@ PN_FN LightSample planar_sample_from_direction(const Light& l, Vec3 x, Vec3 w, f
 template <bool kProjected>
 PN_FN LightSample sample_spherical_polygon(const Light& l, const LightSampleContext& ctx, Vec2 u) {
   if (!faces_emitting_side(l, ctx.p)) return LightSample();
-  const SphericalLight s = make_spherical_light(l, ctx.p);
-  if (!s.usable())
+  const float omega = planar_light_solid_angle(l, ctx.p);
+  if (!spherical_sampling_applies(omega))
     return l.type == LightType::Triangle ? AreaSampling::sample_triangle(l, ctx, u) : AreaSampling::sample_quad(l, ctx, u);
+  const SphericalLight s = make_spherical_light(l, ctx.p, omega);
   float warp_pdf = 1.f;
   if (s.kind == SphericalLight::kRectangle) {
     if (kProjected) {
@@ -203,7 +214,7 @@ PN_FN LightSample sample_spherical_polygon(const Light& l, const LightSampleCont
   }
   int which = 0;
   if (s.kind == SphericalLight::kTwoTriangles) {  // choose a triangle by its solid angle, reuse u.x
-    const float p0 = s.tri[0].area / s.area;
+    const float p0 = s.tri[0].area / (s.tri[0].area + s.tri[1].area);
     if (u.x < p0) {
       u.x = pn_min(u.x / p0, kOneMinusEpsilon);
     } else {
@@ -225,8 +236,8 @@ PN_FN LightSample sample_spherical_polygon(const Light& l, const LightSampleCont
 template <bool kProjected>
 PN_FN float pdf_spherical_polygon(const Light& l, const LightSampleContext& ctx, Vec3 wi) {
   if (!faces_emitting_side(l, ctx.p)) return 0.f;
-  const SphericalLight s = make_spherical_light(l, ctx.p);
-  if (!s.usable())
+  const float omega = planar_light_solid_angle(l, ctx.p);
+  if (!spherical_sampling_applies(omega))
     return l.type == LightType::Triangle ? AreaSampling::pdf_triangle(l, ctx, wi) : AreaSampling::pdf_quad(l, ctx, wi);
   float t;
   Vec2 ab;
@@ -234,7 +245,8 @@ PN_FN float pdf_spherical_polygon(const Light& l, const LightSampleContext& ctx,
   const bool inside = l.type == LightType::Triangle ? (ab.x >= 0.f && ab.y >= 0.f && ab.x + ab.y <= 1.f)
                                                     : (ab.x >= 0.f && ab.x <= 1.f && ab.y >= 0.f && ab.y <= 1.f);
   if (!inside) return 0.f;
-  if (!kProjected) return 1.f / s.area;
+  if (!kProjected) return 1.f / omega;  // no parametrization needed: the density is uniform
+  const SphericalLight s = make_spherical_light(l, ctx.p, omega);
   float w[4];
   Vec2 u;
   if (s.kind == SphericalLight::kRectangle) {
