@@ -185,23 +185,28 @@ def plot_crops(summary, path):
     plt.close(fig)
 
 
-def plot_sweep(xs, runs, xlabel, title, path, log_x=True):
-    fig, ax = plt.subplots(figsize=(5.5, 3.8))
-    for key, label, style in [("efficiency", "all pixels", "o-"), ("efficiency_nolight", "without light pixels", "x--")]:
-        ax.plot(xs, [efficiency_ratio(r, key) for r in runs], style, label=label)
+def finish_ratio_plot(fig, ax, xlabel, ylabel, title, path, log_x, legend_size=8):
+    """The axes of an efficiency-ratio sweep figure (log y, a line at 1), saved."""
     ax.axhline(1.0, color="grey", lw=0.8, ls=":")
     if log_x:
         ax.set_xscale("log")
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     ax.set_yscale("log")
     ax.set_xlabel(xlabel)
-    ax.set_ylabel("efficiency solid-angle / area")
+    ax.set_ylabel(ylabel)
     ax.set_title(title, fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=legend_size)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_sweep(xs, runs, xlabel, title, path, log_x=True):
+    fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    for key, label, style in [("efficiency", "all pixels", "o-"), ("efficiency_nolight", "without light pixels", "x--")]:
+        ax.plot(xs, [efficiency_ratio(r, key) for r in runs], style, label=label)
+    finish_ratio_plot(fig, ax, xlabel, "efficiency solid-angle / area", title, path, log_x)
 
 
 # --- Report --------------------------------------------------------------------
@@ -450,19 +455,7 @@ def plot_lab_sweep(xs, runs, techniques, xlabel, title, path, log_x=True):
     for t in techniques:
         st, m = technique_parts(t)
         ax.plot(xs, [lab_efficiency(r, t) for r in runs], LAB_STYLES[m], color=LAB_COLORS[st], label=t)
-    ax.axhline(1.0, color="grey", lw=0.8, ls=":")
-    if log_x:
-        ax.set_xscale("log")
-        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-    ax.set_yscale("log")
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel("efficiency relative to area (MIS none)")
-    ax.set_title(title, fontsize=9)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    finish_ratio_plot(fig, ax, xlabel, "efficiency relative to area (MIS none)", title, path, log_x, 7)
 
 
 def write_lab_report(args, lab, head, sweeps, out_dir):

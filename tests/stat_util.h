@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/rng.h"
 #include "core/vec.h"
 
 namespace pn::test {
@@ -138,6 +139,34 @@ struct DirectionGrid {
     return out;
   }
 };
+
+// Chi-square of n sampled directions against a solid-angle pdf over a
+// DirectionGrid; sample() returns false for "no sample" (the last bin, whose
+// expectation is 1 - the pdf's mass on the grid). A bin that a discontinuity
+// (a horizon, a cone's rim) cuts to a sliver between the integration points can
+// come out empty although samples land in it: then the grid is integrated again,
+// finer.
+inline Chi2Result chi2_directions(const DirectionGrid& grid, const std::function<bool(Vec2, Vec3*)>& sample,
+                                  const std::function<double(Vec3)>& pdf, int n, uint32_t seed, int res = 12) {
+  auto expected_counts = [&](int r) {
+    std::vector<double> e = grid.integrate(pdf, r);
+    double inside = 0;
+    for (int i = 0; i + 1 < grid.bins(); ++i) inside += e[i];
+    e.back() = std::max(0.0, 1.0 - inside);
+    for (double& x : e) x *= n;
+    return e;
+  };
+  std::vector<double> expected = expected_counts(res), observed(grid.bins(), 0.0);
+  Rng rng(0, 0, seed);
+  for (int i = 0; i < n; ++i) {
+    Vec3 w;
+    observed[sample(rng.uniform2(), &w) ? grid.bin(w) : grid.bins() - 1] += 1;
+  }
+  bool sliver = false;
+  for (int i = 0; i + 1 < grid.bins(); ++i) sliver = sliver || (observed[i] > 0 && expected[i] < 0.5);
+  if (sliver) expected = expected_counts(8 * res);
+  return chi2_test(observed, expected);
+}
 
 // Running mean and standard error of i.i.d. samples.
 struct MeanEstimator {

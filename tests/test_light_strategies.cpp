@@ -101,30 +101,14 @@ void expect_samples_follow_pdf(Strategy s, const LightCase& c, uint32_t seed) {
   if (l.type == LightType::Sphere) {
     const double cos_max = std::sqrt(std::max(0.0, 1.0 - double(l.radius) * l.radius / length_sq(l.p - x)));
     DirectionGrid grid(l.p - x, cos_max, 16, 24);
-    std::vector<double> expected = grid.integrate([&](Vec3 w) { return strategy_pdf(s, c, w); }, 16);
-    double inside = 0;
-    for (int i = 0; i + 1 < grid.bins(); ++i) inside += expected[i];
-    expected.back() = std::max(0.0, 1.0 - inside);
-    for (double& e : expected) e *= kSamples;
-    std::vector<double> observed(grid.bins(), 0.0);
-    Rng rng(0, 0, seed);
-    for (int i = 0; i < kSamples; ++i) {
-      LightSample ls = strategy_sample(s, c, rng.uniform2());
-      observed[ls.pdf > 0.f ? grid.bin(ls.wi) : grid.bins() - 1] += 1;
-    }
-    // A bin that the horizon cuts to a sliver between the midpoints can come out
-    // empty although samples land in it: integrate again, finer.
-    bool sliver = false;
-    for (int i = 0; i + 1 < grid.bins(); ++i) sliver = sliver || (observed[i] > 0 && expected[i] < 0.5);
-    if (sliver) {
-      std::vector<double> fine = grid.integrate([&](Vec3 w) { return strategy_pdf(s, c, w); }, 96);
-      double in = 0;
-      for (int i = 0; i + 1 < grid.bins(); ++i) in += fine[i];
-      fine.back() = std::max(0.0, 1.0 - in);
-      for (double& e : fine) e *= kSamples;
-      expected = fine;
-    }
-    auto r = chi2_test(observed, expected);
+    auto r = test::chi2_directions(
+        grid,
+        [&](Vec2 u, Vec3* w) {
+          LightSample ls = strategy_sample(s, c, u);
+          *w = ls.wi;
+          return ls.pdf > 0.f;
+        },
+        [&](Vec3 w) { return strategy_pdf(s, c, w); }, kSamples, seed, 16);
     EXPECT_GT(r.p_value, kMinP) << r.message;
     return;
   }

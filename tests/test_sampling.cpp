@@ -24,19 +24,7 @@ constexpr double kMinP = 1e-3;  // fixed seeds: a correct sampler passes determi
 // `sample` returns false for a rejected sample (counted in the outside bin).
 void expect_matches_pdf(const DirectionGrid& grid, const std::function<bool(Vec2, Vec3*)>& sample,
                         const std::function<double(Vec3)>& pdf, uint32_t seed, int res = 12) {
-  std::vector<double> expected = grid.integrate(pdf, res);
-  double inside = 0;
-  for (int i = 0; i + 1 < grid.bins(); ++i) inside += expected[i];
-  expected.back() = std::max(0.0, 1.0 - inside);
-  for (double& e : expected) e *= kSamples;
-  std::vector<double> observed(grid.bins(), 0.0);
-  Rng rng(0, 0, seed);
-  for (int i = 0; i < kSamples; ++i) {
-    Vec3 w;
-    if (sample(rng.uniform2(), &w)) observed[grid.bin(w)] += 1;
-    else observed.back() += 1;
-  }
-  auto r = chi2_test(observed, expected);
+  auto r = test::chi2_directions(grid, sample, pdf, kSamples, seed, res);
   EXPECT_GT(r.p_value, kMinP) << r.message;
 }
 

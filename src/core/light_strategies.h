@@ -261,9 +261,26 @@ PN_FN float pdf_spherical_polygon(const Light& l, const LightSampleContext& ctx,
   return bilinear_pdf(u, w) / s.area;
 }
 
+// The quad and triangle functions of the two spherical strategies.
+template <bool kProjected>
+struct SphericalPolygonSampling {
+  PN_FN static LightSample sample_quad(const Light& l, const LightSampleContext& ctx, Vec2 u) {
+    return sample_spherical_polygon<kProjected>(l, ctx, u);
+  }
+  PN_FN static float pdf_quad(const Light& l, const LightSampleContext& ctx, Vec3 wi) {
+    return pdf_spherical_polygon<kProjected>(l, ctx, wi);
+  }
+  PN_FN static LightSample sample_triangle(const Light& l, const LightSampleContext& ctx, Vec2 u) {
+    return sample_spherical_polygon<kProjected>(l, ctx, u);
+  }
+  PN_FN static float pdf_triangle(const Light& l, const LightSampleContext& ctx, Vec3 wi) {
+    return pdf_spherical_polygon<kProjected>(l, ctx, wi);
+  }
+};
+
 // --- solid-angle ----------------------------------------------------------------
 
-struct SolidAngleSampling {
+struct SolidAngleSampling : SphericalPolygonSampling<false> {
   // Uniform in the cone the sphere subtends, sin theta_max = r / d, so the
   // estimator L cos / p_w has no 1/d^2 term and never misses the light. The
   // point on the sphere comes from the angle alpha at the centre, exact where
@@ -303,23 +320,11 @@ struct SolidAngleSampling {
     if (!(dot(wi, axis) > 0.f) || length_sq(cross(wi, axis)) > cone_containment_bound(cone)) return 0.f;
     return uniform_cone_pdf(cone);
   }
-  PN_FN static LightSample sample_quad(const Light& l, const LightSampleContext& ctx, Vec2 u) {
-    return sample_spherical_polygon<false>(l, ctx, u);
-  }
-  PN_FN static float pdf_quad(const Light& l, const LightSampleContext& ctx, Vec3 wi) {
-    return pdf_spherical_polygon<false>(l, ctx, wi);
-  }
-  PN_FN static LightSample sample_triangle(const Light& l, const LightSampleContext& ctx, Vec2 u) {
-    return sample_spherical_polygon<false>(l, ctx, u);
-  }
-  PN_FN static float pdf_triangle(const Light& l, const LightSampleContext& ctx, Vec3 wi) {
-    return pdf_spherical_polygon<false>(l, ctx, wi);
-  }
 };
 
 // --- projected-solid-angle -----------------------------------------------------------
 
-struct ProjectedSolidAngleSampling {
+struct ProjectedSolidAngleSampling : SphericalPolygonSampling<true> {
   // The projected spherical cap (core/projected_cap.h); the point on the sphere
   // where the sampled direction enters it.
   PN_FN static LightSample sample_sphere(const Light& l, const LightSampleContext& ctx, Vec2 u) {
@@ -343,18 +348,6 @@ struct ProjectedSolidAngleSampling {
     const float dc2 = dot(to_center, to_center), r2 = l.radius * l.radius;
     if (dc2 <= r2 * 1.00001f) return AreaSampling::pdf_sphere(l, ctx, wi);
     return projected_cap_pdf(make_projected_cap(to_center / std::sqrt(dc2), r2 / dc2, ctx.n), wi);
-  }
-  PN_FN static LightSample sample_quad(const Light& l, const LightSampleContext& ctx, Vec2 u) {
-    return sample_spherical_polygon<true>(l, ctx, u);
-  }
-  PN_FN static float pdf_quad(const Light& l, const LightSampleContext& ctx, Vec3 wi) {
-    return pdf_spherical_polygon<true>(l, ctx, wi);
-  }
-  PN_FN static LightSample sample_triangle(const Light& l, const LightSampleContext& ctx, Vec2 u) {
-    return sample_spherical_polygon<true>(l, ctx, u);
-  }
-  PN_FN static float pdf_triangle(const Light& l, const LightSampleContext& ctx, Vec3 wi) {
-    return pdf_spherical_polygon<true>(l, ctx, wi);
   }
 };
 
