@@ -110,7 +110,11 @@ void parse_render(const Node& n, Scene& s) {
   if (n.has("spp")) r.spp = n.at("spp").integer(1, kMaxSpp);
   if (n.has("max_depth")) r.max_depth = n.at("max_depth").integer(0, kMaxDepth);
   if (n.has("rr_depth")) r.rr_depth = n.at("rr_depth").integer(1, kMaxDepth);
-  if (n.has("strategy")) r.strategy = parse_strategy(n.at("strategy").string(), s.source + ": " + n.path + ".strategy");
+  if (n.has("strategy")) {
+    Node st = n.at("strategy");
+    if (!find_strategy(st.string(), &r.strategy))
+      st.fail("unknown strategy '" + st.string() + "' (expected one of: " + strategy_names() + ")");
+  }
   if (n.has("seed")) r.seed = uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max())));
 }
 
@@ -441,9 +445,18 @@ std::string strategy_names() {
   return out;
 }
 
-Strategy parse_strategy(const std::string& name, const std::string& where) {
+bool find_strategy(const std::string& name, Strategy* out) {
   for (int i = 0; i < kNumStrategies; ++i)
-    if (name == strategy_name(Strategy(i))) return Strategy(i);
+    if (name == strategy_name(Strategy(i))) {
+      *out = Strategy(i);
+      return true;
+    }
+  return false;
+}
+
+Strategy parse_strategy(const std::string& name, const std::string& where) {
+  Strategy s;
+  if (find_strategy(name, &s)) return s;
   throw SceneError(where + ": unknown strategy '" + name + "' (expected one of: " + strategy_names() + ")");
 }
 
@@ -496,10 +509,22 @@ Scene parse_scene(const json& doc, const std::string& source, const std::string&
   return s;
 }
 
+void parse_frame_settings(const json& doc, const std::string& source, CameraDesc* camera, RenderSettings* render) {
+  Scene s;
+  s.source = source;
+  s.camera = *camera;
+  Node root{doc, "", s.source};
+  if (!doc.is_object()) root.fail("expected an object, got " + std::string(doc.type_name()));
+  if (root.has("render")) parse_render(root.at("render"), s);
+  if (root.has("camera")) parse_camera(root.at("camera"), s);
+  *camera = s.camera;
+  *render = s.render;
+}
+
 void apply_override(json& doc, const std::string& assignment, const std::string& source) {
   auto eq = assignment.find('=');
   auto fail = [&](const std::string& msg) -> void {
-    throw SceneError(source + ": --set " + assignment + ": " + msg);
+    throw SceneError(source, "--set " + assignment, msg);
   };
   if (eq == std::string::npos || eq == 0) fail("expected key=value, e.g. light.radius=0.05");
   std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
@@ -546,7 +571,7 @@ json load_scene_json(const std::string& name_or_path, const std::vector<std::str
     if (!in) {
       std::string names;
       for (const auto& bs : builtin_scenes()) names += (names.empty() ? "" : ", ") + std::string(bs.name);
-      throw SceneError(name_or_path + ": cannot open scene file (and it is not a built-in scene: " + names + ")");
+      throw SceneError(name_or_path, "", "cannot open scene file (and it is not a built-in scene: " + names + ")");
     }
     std::stringstream buf;
     buf << in.rdbuf();
@@ -556,7 +581,7 @@ json load_scene_json(const std::string& name_or_path, const std::vector<std::str
       std::string what = e.what();
       auto pos = what.find("] ");
       if (pos != std::string::npos) pos += 2;
-      throw SceneError(name_or_path + ": invalid JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
+      throw SceneError(name_or_path, "", "invalid JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
     }
   }
   for (const auto& o : overrides) apply_override(doc, o, *source);
@@ -577,7 +602,7 @@ Scene load_scene(const std::string& name_or_path, const std::vector<std::string>
       if (fs::is_regular_file(f, ec)) continue;
       std::string roots;
       for (const auto& r : scene_data_roots()) roots += (roots.empty() ? "" : ", ") + r;
-      throw SceneError(source + ": models[" + std::to_string(i) + "].file: '" + f + "' not found (looked in " + roots +
+      throw SceneError(source, "models[" + std::to_string(i) + "].file", "'" + f + "' not found (looked in " + roots +
                        "); set PENUMBRA_SCENES to a folder holding sponza/ and models/, or pass --set models." +
                        std::to_string(i) + ".file=PATH");
     }
