@@ -135,10 +135,14 @@ DlpackArray image_array(const float* data, const ImageData& img, nb::handle owne
   return DlpackArray(const_cast<float*>(data), 3, shape, owner, nullptr, nb::dtype<float>(), device_type, device_id);
 }
 
+// The mean or the variance as a read-only numpy view owned by the Image (GPU
+// results are copied to the host once, on first use).
 using HostArray = nb::ndarray<nb::numpy, const float, nb::shape<-1, -1, 3>, nb::c_contig>;
-HostArray host_array(const float* data, const ImageData& img, nb::handle owner) {
+HostArray host_view(PyImage& self, bool variance) {
+  ImageData& img = *self.data;
+  const float* data = backend_call([&] { return variance ? img.variance() : img.rgb(); });
   size_t shape[3] = {size_t(img.height), size_t(img.width), 3};
-  return HostArray(data, 3, shape, owner);
+  return HostArray(data, 3, shape, nb::find(&self));
 }
 
 DlpackArray dlpack_of(PyImage& self, bool variance) {
@@ -257,20 +261,9 @@ them without a copy to the host.)")
       .def_prop_ro("stats", [](const PyImage& i) { return to_py(i.data->stats); })
       .def_prop_ro("on_gpu", [](const PyImage& i) { return bool(i.data->device); },
                    "True when the image is held on the GPU (the OptiX backend)")
-      .def_prop_ro(
-          "rgb",
-          [](PyImage& i) {
-            const float* p = backend_call([&] { return i.data->rgb(); });
-            return host_array(p, *i.data, nb::find(&i));
-          },
-          "Mean radiance, float32 (H, W, 3), read-only")
-      .def_prop_ro(
-          "variance",
-          [](PyImage& i) {
-            const float* p = backend_call([&] { return i.data->variance(); });
-            return host_array(p, *i.data, nb::find(&i));
-          },
-          "Variance of the mean, float32 (H, W, 3), read-only")
+      .def_prop_ro("rgb", [](PyImage& i) { return host_view(i, false); }, "Mean radiance, float32 (H, W, 3), read-only")
+      .def_prop_ro("variance", [](PyImage& i) { return host_view(i, true); },
+                   "Variance of the mean, float32 (H, W, 3), read-only")
       .def(
           "rgb_dlpack", [](PyImage& i) { return dlpack_of(i, false); },
           "The mean as a DLPack-capable array, float32 (H, W, 3), without a copy: on the GPU for GPU results, "

@@ -6,6 +6,7 @@ import pytest
 
 import penumbra
 from conftest import gpu_reason
+from test_interrupt import interrupted_render
 
 pytestmark = pytest.mark.skipif(gpu_reason() is not None, reason=str(gpu_reason()))
 
@@ -79,3 +80,10 @@ def test_gpu_same_seed_same_image_as_the_cli(cli, tmp_path):
     img = penumbra.render("cornell-sphere", spp=8, seed=3, backend="optix", **SIZE)
     # Same launches, same device sums, the host's arithmetic on the device.
     assert np.array_equal(penumbra.read_exr(out), img.rgb)
+
+
+def test_ctrl_c_interrupts_a_gpu_render():
+    # 1 spp per launch at 1920x1080: 100000 spp would take minutes.
+    seconds, spp = interrupted_render("optix", 1920, 1080, 100000)
+    assert seconds < 5.0
+    assert spp >= 1  # launches that started before the interrupt completed, and count
