@@ -164,7 +164,7 @@ def load_scene(scene: SceneLike, overrides: Optional[Mapping[str, Any]] = None) 
 
 
 def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[int] = None,
-           width: Optional[int] = None, height: Optional[int] = None, seed: int = 0,
+           width: Optional[int] = None, height: Optional[int] = None, seed: Optional[int] = 0,
            max_depth: Optional[int] = None, backend: str = "auto", mis: Optional[str] = None,
            denoise: bool = False, overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
            progress: Optional[ProgressFn] = None) -> Image:
@@ -179,7 +179,8 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
         strategy: "area", "solid-angle" or "bsdf".
         spp: samples per pixel.
         width, height: the image size in pixels.
-        seed: the random seed: the image is a pure function of scene, settings and seed.
+        seed: the random seed: the image is a pure function of scene, settings and seed
+            (None: the scene's own, as on the command line).
         max_depth: the maximum number of bounces.
         backend: "cpu", "optix" (the GPU) or "auto" (the GPU where it works, else the CPU;
             ``image.stats["note"]`` says which and why).
@@ -219,7 +220,7 @@ class Renderer:
 
     def __init__(self, scene: SceneLike, *, backend: str = "auto", strategy: Optional[str] = None,
                  spp: Optional[int] = None, width: Optional[int] = None, height: Optional[int] = None,
-                 seed: int = 0, max_depth: Optional[int] = None, mis: Optional[str] = None,
+                 seed: Optional[int] = 0, max_depth: Optional[int] = None, mis: Optional[str] = None,
                  overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None):
         s = scene if isinstance(scene, Scene) else load_scene(scene)
         frame = _frame_overrides(strategy, spp, width, height, seed, max_depth, mis)

@@ -255,6 +255,13 @@ Attributes:
 Results of the GPU backend stay on the GPU until rgb or variance is read; use
 rgb_dlpack() (or pass the image to torch.from_dlpack / cupy.from_dlpack) to use
 them without a copy to the host.)")
+      .def("__repr__",
+           [](const PyImage& i) {
+             const ImageData& d = *i.data;
+             return "<penumbra.Image " + std::to_string(d.width) + "x" + std::to_string(d.height) + ", " +
+                    std::to_string(d.spp) + " spp, " + d.stats.value("backend", std::string("?")) +
+                    (d.device ? ", on the GPU>" : ">");
+           })
       .def_prop_ro("width", [](const PyImage& i) { return i.data->width; })
       .def_prop_ro("height", [](const PyImage& i) { return i.data->height; })
       .def_prop_ro("spp", [](const PyImage& i) { return i.data->spp; })

@@ -69,10 +69,11 @@ def test_other_threads_run_while_rendering():
         stop.set()
         t.join()
     during = [x for x in ticks if t0 < x < t1]
-    # The render takes about a second; a thread blocked by the GIL would tick
-    # at most a few times (at progress callbacks).
+    # The render takes about a second; a thread blocked by the GIL would not
+    # tick at all (the progress hook's acquire is then a no-op), a free one
+    # every 5 ms or so, less what two busy render threads leave it.
     assert t1 - t0 > 0.2
-    assert len(during) > 0.5 * (t1 - t0) / 0.01, (len(during), t1 - t0)
+    assert len(during) > 0.2 * (t1 - t0) / 0.01, (len(during), t1 - t0)
 
 
 def test_progress_callback():
