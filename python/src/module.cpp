@@ -47,7 +47,7 @@ struct BackendFailure : std::runtime_error {
 };
 
 // Runs `f` with the GIL released; std::runtime_errors other than scene errors
-// come back as BackendFailure.
+// come back as BackendFailure (std::invalid_argument becomes a ValueError).
 template <class F>
 auto backend_call(F&& f) {
   try {
@@ -57,8 +57,6 @@ auto backend_call(F&& f) {
     throw;
   } catch (const nb::python_error&) {
     throw;
-  } catch (const std::invalid_argument& e) {
-    throw BackendFailure(e.what());
   } catch (const std::runtime_error& e) {
     throw BackendFailure(e.what());
   } catch (const std::bad_alloc&) {

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -92,12 +93,12 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   for (const auto& s : a.strategies) strategies.push_back(parse_strategy(s, "--strategies"));
   Strategy ref_strategy = parse_strategy(a.reference_strategy, "--reference-strategy");
   if (a.max_spp < 1 || a.seeds < 1 || a.reference_spp < 1 || a.crop_spp < 1)
-    throw std::runtime_error("converge: --max-spp, --seeds, --reference-spp and --crop-spp must be >= 1");
+    throw std::invalid_argument("converge: --max-spp, --seeds, --reference-spp and --crop-spp must be >= 1");
   std::vector<int> crop = a.crop.empty() ? auto_crop(scene) : a.crop;
   if (crop.size() != 4 || crop[2] < 1 || crop[3] < 1 || crop[0] < 0 || crop[1] < 0 || crop[0] + crop[2] > W ||
       crop[1] + crop[3] > H)
-    throw std::runtime_error("converge: --crop must be x,y,w,h inside the " + std::to_string(W) + "x" +
-                             std::to_string(H) + " image");
+    throw std::invalid_argument("converge: --crop must be x,y,w,h inside the " + std::to_string(W) + "x" +
+                                std::to_string(H) + " image");
 
   const std::string& out = a.out;  // "": write no files but the cached reference
   if (!out.empty()) fs::create_directories(out);

@@ -49,7 +49,8 @@ struct ConvergeResult {
 };
 
 // Runs the experiment; with a non-empty `out`, also writes its files there.
-// Throws SceneError for a bad scene and std::runtime_error for bad options.
+// Throws SceneError for a bad scene, std::invalid_argument for bad options and
+// std::runtime_error when a backend fails.
 ConvergeResult run_converge(const ConvergeOptions& options);
 
 // The header of measurements.csv and one of its rows.
