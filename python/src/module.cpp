@@ -8,7 +8,9 @@
 // and the caller's progress function. Errors: SceneError and BackendError
 // (python/penumbra/_errors.py), raised by the translator below.
 #include <chrono>
+#include <filesystem>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -16,6 +18,8 @@
 
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
+#include <nanobind/stl/filesystem.h>
+#include <nanobind/stl/optional.h>
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
 #include <nanobind/stl/pair.h>
@@ -40,7 +44,7 @@ using json = nlohmann::json;
 namespace pn::py {
 namespace {
 
-// A failure of a backend (no GPU, a CUDA or Embree error, an unknown backend):
+// A failure of a backend (no GPU or driver, a CUDA or Embree error, a failed build):
 // raised in Python as penumbra.BackendError.
 struct BackendFailure : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -215,7 +219,6 @@ NB_MODULE(_penumbra, m) {
   // --- Scenes ---------------------------------------------------------------------
   nb::class_<PyScene>(m, "Scene")
       .def_prop_ro("source", [](const PyScene& s) { return s.state.source; })
-      .def("json", [](const PyScene& s) { return s.state.doc.dump(); })
       .def("to_py", [](const PyScene& s) { return to_py(s.state.doc); })
       .def("with_overrides",
            [](const PyScene& s, const std::vector<std::string>& overrides) {
@@ -292,24 +295,25 @@ them without a copy to the host.)")
            })
       .def(
           "save",
-          [](PyImage& i, const std::string& path, float exposure, const std::string& variance_path) {
+          [](PyImage& i, const std::filesystem::path& path, float exposure,
+             const std::optional<std::filesystem::path>& variance_path) {
             ImageData& img = *i.data;
             std::vector<float> rgb, var;
-            {
-              nb::gil_scoped_release release;
+            backend_call([&] {
               rgb.assign(img.rgb(), img.rgb() + img.count());
-              if (!variance_path.empty()) var.assign(img.variance(), img.variance() + img.count());
-            }
+              if (variance_path) var.assign(img.variance(), img.variance() + img.count());
+              return 0;
+            });
             try {
               nb::gil_scoped_release release;
-              write_image(path, img.width, img.height, rgb, exposure);
-              if (!variance_path.empty()) write_image(variance_path, img.width, img.height, var);
+              write_image(path.string(), img.width, img.height, rgb, exposure);
+              if (variance_path) write_image(variance_path->string(), img.width, img.height, var);
             } catch (const std::runtime_error& e) {
               PyErr_SetString(PyExc_OSError, e.what());
               throw nb::python_error();
             }
           },
-          "path"_a, "exposure"_a = 0.f, "variance_path"_a = "",
+          "path"_a, "exposure"_a = 0.f, "variance_path"_a = nb::none(),
           "Writes the image as penumbra render does: .exr linear float32, .png sRGB 8-bit after `exposure` "
           "stops; with variance_path, also the variance (EXR)");
 

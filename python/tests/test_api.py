@@ -141,7 +141,7 @@ def test_bad_change_leaves_the_renderer_as_it_was():
 
 def test_image_save_writes_what_the_cli_writes(tmp_path):
     img = penumbra.render("cornell-sphere", spp=2, backend="cpu", **SMALL)
-    img.save(str(tmp_path / "a.exr"), variance_path=str(tmp_path / "a_var.exr"))
+    img.save(tmp_path / "a.exr", variance_path=str(tmp_path / "a_var.exr"))
     img.save(str(tmp_path / "a.png"))
     assert np.array_equal(penumbra.read_exr(tmp_path / "a.exr"), img.rgb)
     assert np.array_equal(penumbra.read_exr(tmp_path / "a_var.exr"), img.variance)
