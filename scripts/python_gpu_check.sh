@@ -70,13 +70,7 @@ prepare() {
   echo "  rm -rf $dir/build) and run: bash scripts/python_gpu_check.sh check ${dir#"$root"/}"
 }
 
-declare -a names=() verdicts=()
-failed=0
-record() {  # record NAME STATUS
-  names+=("$1")
-  if [[ $2 -eq 0 ]]; then verdicts+=("PASS"); else verdicts+=("FAIL"); failed=1; fi
-  printf '%-60s %s\n' "$1" "${verdicts[-1]}"
-}
+source "$root/scripts/check_record.sh"  # record NAME STATUS, finish_checks TITLE
 
 check() {
   local python=${PYTHON:-python3}
@@ -132,10 +126,8 @@ PY
   record "DLPack: torch.from_dlpack(image) on the GPU, no copy" $?
 
   rm -rf "$work"
-  echo "== summary"
-  for i in "${!names[@]}"; do printf '%-60s %s\n' "${names[$i]}" "${verdicts[$i]}"; done
-  if [[ $failed -eq 0 ]]; then echo "python_gpu_check: PASS (${#names[@]} checks)"; else echo "python_gpu_check: FAIL"; fi
-  return $failed
+  echo "== python_gpu_check summary"
+  finish_checks python_gpu_check
 }
 
 case $mode in
