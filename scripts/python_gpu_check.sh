@@ -6,16 +6,14 @@
 #   scripts/python_gpu_check.sh prepare [DIR]   # here: a machine with scripts/install-deps.sh's packages
 #   scripts/python_gpu_check.sh check [DIR]     # there: carry DIR (default .deps/python-gpu, git-ignored)
 #
-# prepare builds, into DIR:
-#   build/        the CMake build (CLI + module, no tests, no viewer) for the GPU machine's Python (PYTHON,
-#                 default pyenv's 3.12), with the GPU backend compiled against OptiX headers that the build
-#                 fetches itself (cmake/FetchOptiX.cmake) for driver DRIVER (default 580.159.04, the GPU
-#                 machine's) from OPTIX_DEV (a clone of NVIDIA's optix-dev; default: this workplace's mirror);
+# prepare configures and builds BUILD (default build-python-gpu: the CLI and the module, no tests, no viewer)
+# for the GPU machine's Python (PYTHON, default pyenv's 3.12), with the GPU backend compiled against OptiX
+# headers that the build fetches itself (cmake/FetchOptiX.cmake) for driver DRIVER (default 580.159.04, the
+# GPU machine's) from OPTIX_DEV (a clone of NVIDIA's optix-dev; default: this workplace's mirror); with
+# PACK_ONLY=1 it packs an existing BUILD (built for that Python) as it is. Then it fills DIR (about 16 MB):
 #   python/       the package penumbra with its extension; bin/penumbra, the executable;
 #   lib.tar.xz    the Debian libraries they need (Embree, TBB, tinyexr, tinyobjloader, stb);
 #   optix-dev.git a bare clone of OPTIX_DEV, for the fetch test there.
-# An existing build folder can be packed instead of building: BUILD=path/to/build (with python/penumbra and
-# penumbra in it, built for the GPU machine's Python).
 #
 # check, on the GPU machine (python3 with numpy, pytest; torch or cupy for DLPack):
 #   1. FetchOptiX with the real driver (no injected version): tests/fetch_optix against DIR/optix-dev.git must
@@ -37,10 +35,9 @@ prepare() {
   local python=${PYTHON:-/root/.pyenv/versions/3.12.1/bin/python3}
   local driver=${DRIVER:-580.159.04}
   local optix_dev=${OPTIX_DEV:-/work/.mirror/NVIDIA+optix-dev/repo}
-  local build=${BUILD:-}
+  local build=${BUILD:-$root/build-python-gpu}
   set -e
-  if [[ -z $build ]]; then
-    build=$dir/build
+  if [[ ${PACK_ONLY:-0} != 1 ]]; then
     local nb_dir
     nb_dir=$(python3 -m nanobind --cmake_dir)  # nanobind's CMake files work for any Python
     echo "== configure $build for $("$python" --version), OptiX headers fetched for driver $driver from $optix_dev"
@@ -66,8 +63,7 @@ prepare() {
   tar -C "$dir" -cJf "$dir/lib.tar.xz" lib
   rm -rf "$dir/lib"
   git clone -q --bare "$optix_dev" "$dir/optix-dev.git"
-  echo "prepare: $dir ($(du -sh "$dir" --exclude=build | cut -f1) without build/): carry it (drop build/ first:"
-  echo "  rm -rf $dir/build) and run: bash scripts/python_gpu_check.sh check ${dir#"$root"/}"
+  echo "prepare: $dir ($(du -sh "$dir" | cut -f1)): carry it and run: bash scripts/python_gpu_check.sh check ${dir#"$root"/}"
 }
 
 source "$root/scripts/check_record.sh"  # record NAME STATUS, finish_checks TITLE
