@@ -4,6 +4,7 @@
 set -euo pipefail
 packages=(
   cmake ninja-build g++ pkg-config python3 python3-pip
+  python3-dev python3-venv  # the Python module: headers; CI installs it into a virtual environment
   libembree-dev          # Embree 3: CPU ray traversal
   nlohmann-json3-dev     # scene files
   libcli11-dev           # command line
