@@ -1,8 +1,10 @@
-# The OptiX backend is built when CUDA is available and OptiX headers are found
-# through OptiX_ROOT (CMake or environment variable): the folder holding
-# include/optix.h. Nothing here runs a GPU program, so it configures and compiles
-# on machines without a GPU (CI does exactly that, with the headers that
-# .ci/optix_headers.sh unpacks from PyPI).
+# The OptiX backend is built when CUDA is available and OptiX headers are found:
+# OptiX_ROOT (CMake or environment variable), the folder holding include/optix.h,
+# or, when it is not given and an NVIDIA driver is installed, headers matching
+# that driver fetched from NVIDIA's optix-dev repository (cmake/FetchOptiX.cmake:
+# driver 580 -> OptiX 9.0, 590 and later -> 9.1). Nothing here runs a GPU
+# program, so it configures and compiles on machines without a GPU (CI does
+# exactly that, with the headers that .ci/optix_headers.sh unpacks from PyPI).
 #
 # Included from the top-level CMakeLists.txt (not add_subdirectory) so that the
 # CUDA language is enabled in the top directory, as CMake requires.
@@ -12,25 +14,61 @@ if(NOT PENUMBRA_OPTIX)
   set(PENUMBRA_OPTIX_SUMMARY "; optix: disabled (PENUMBRA_OPTIX=OFF)")
   return()
 endif()
-if(NOT OptiX_ROOT AND DEFINED ENV{OptiX_ROOT})
-  set(OptiX_ROOT "$ENV{OptiX_ROOT}")
-endif()
-if(NOT OptiX_ROOT OR NOT EXISTS "${OptiX_ROOT}/include/optix.h")
-  message(STATUS "penumbra: OptiX headers not found: set OptiX_ROOT to the folder holding include/optix.h "
-                 "(e.g. -DOptiX_ROOT=$HOME/NVIDIA-OptiX-SDK-9.0.0-linux64-x86_64); the GPU backend is left out")
-  set(PENUMBRA_OPTIX_SUMMARY "; optix: left out (no OptiX_ROOT)")
+if(NOT EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/src/backends/optix/CMakeLists.txt")
+  set(PENUMBRA_OPTIX_SUMMARY "; optix: left out (no sources)")
   return()
+endif()
+if(NOT OptiX_ROOT AND DEFINED ENV{OptiX_ROOT})
+  # Cached: a later reconfigure (e.g. by `cmake --build`) without the variable keeps it.
+  set(OptiX_ROOT "$ENV{OptiX_ROOT}" CACHE PATH "Folder holding include/optix.h (from the environment)")
+endif()
+set(_pn_optix_origin "")
+set(_pn_optix_tag "")
+if(OptiX_ROOT)
+  if(NOT EXISTS "${OptiX_ROOT}/include/optix.h")
+    message(STATUS "penumbra: OptiX_ROOT=${OptiX_ROOT} has no include/optix.h: set OptiX_ROOT to the folder holding "
+                   "include/optix.h (e.g. -DOptiX_ROOT=$HOME/NVIDIA-OptiX-SDK-9.0.0-linux64-x86_64); "
+                   "the GPU backend is left out")
+    set(PENUMBRA_OPTIX_SUMMARY "; optix: left out (no include/optix.h in OptiX_ROOT)")
+    return()
+  endif()
+else()
+  # No headers given: those of the installed driver, if there is one.
+  include(${CMAKE_CURRENT_LIST_DIR}/FetchOptiX.cmake)
+  penumbra_optix_tag_for_driver(_pn_optix_tag _pn_driver _pn_why)
+  if(NOT _pn_optix_tag)
+    message(STATUS "penumbra: ${_pn_why}: the GPU backend is left out (set OptiX_ROOT to the folder holding "
+                   "include/optix.h to build it anyway)")
+    set(PENUMBRA_OPTIX_SUMMARY "; optix: left out (${_pn_why})")
+    return()
+  endif()
+endif()
+
+# The CUDA compiler: CUDACXX, nvcc on the PATH, else CUDA's default install folder.
+if(NOT DEFINED ENV{CUDACXX} AND NOT CMAKE_CUDA_COMPILER)
+  find_program(PENUMBRA_NVCC nvcc)
+  mark_as_advanced(PENUMBRA_NVCC)
+  if(NOT PENUMBRA_NVCC AND EXISTS "/usr/local/cuda/bin/nvcc")
+    set(ENV{CUDACXX} "/usr/local/cuda/bin/nvcc")
+  endif()
 endif()
 include(CheckLanguage)
 check_language(CUDA)
 if(NOT CMAKE_CUDA_COMPILER)
-  message(STATUS "penumbra: no CUDA compiler found: the GPU backend is left out")
+  message(STATUS "penumbra: no CUDA compiler found (nvcc: install the CUDA toolkit, 12 or later): "
+                 "the GPU backend is left out")
   set(PENUMBRA_OPTIX_SUMMARY "; optix: left out (no CUDA compiler)")
   return()
 endif()
-if(NOT EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/src/backends/optix/CMakeLists.txt")
-  set(PENUMBRA_OPTIX_SUMMARY "; optix: left out (no sources)")
-  return()
+
+if(_pn_optix_tag)
+  penumbra_fetch_optix_headers(${_pn_optix_tag} OptiX_ROOT _pn_why)
+  if(NOT OptiX_ROOT)
+    message(STATUS "penumbra: ${_pn_why}")
+    set(PENUMBRA_OPTIX_SUMMARY "; optix: left out (no OptiX headers: see above)")
+    return()
+  endif()
+  set(_pn_optix_origin ", fetched from ${PENUMBRA_OPTIX_GIT_URL} at ${_pn_optix_tag} for NVIDIA driver ${_pn_driver}")
 endif()
 
 # GPU architectures. Nothing here may depend on a GPU being present, so no
@@ -57,4 +95,4 @@ target_link_libraries(penumbra_lib PUBLIC penumbra_optix)
 target_compile_definitions(penumbra_lib PUBLIC PN_HAVE_OPTIX=1)
 set(PENUMBRA_HAVE_OPTIX ON)
 set(PENUMBRA_OPTIX_SUMMARY
-    "; optix (OptiX ${PENUMBRA_OPTIX_VERSION_STRING} headers, CUDA ${CMAKE_CUDA_COMPILER_VERSION}, architectures ${CMAKE_CUDA_ARCHITECTURES})")
+    "; optix (OptiX ${PENUMBRA_OPTIX_VERSION_STRING} headers${_pn_optix_origin}, CUDA ${CMAKE_CUDA_COMPILER_VERSION}, architectures ${CMAKE_CUDA_ARCHITECTURES})")

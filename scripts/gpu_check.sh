@@ -41,13 +41,7 @@ height=${GPU_CHECK_HEIGHT:-72}
 spp=${GPU_CHECK_SPP:-1024}
 real_scenes=${GPU_CHECK_REAL_SCENES:-glossy sponza}
 
-declare -a names=() verdicts=()
-failed=0
-record() {  # record NAME STATUS
-  names+=("$1")
-  if [[ $2 -eq 0 ]]; then verdicts+=("PASS"); else verdicts+=("FAIL"); failed=1; fi
-  printf '%-52s %s\n' "$1" "${verdicts[-1]}"
-}
+source "$root/scripts/check_record.sh"  # record NAME STATUS, finish_checks TITLE
 
 if [[ -z $build ]]; then
   build=$root/build-gpu-check
@@ -160,10 +154,4 @@ fi
 
 echo
 echo "== gpu_check summary ($(date -u +%Y-%m-%dT%H:%M:%SZ), outputs in $out)"
-for i in "${!names[@]}"; do printf '  %-4s %s\n' "${verdicts[$i]}" "${names[$i]}"; done
-if [[ $failed -eq 0 ]]; then
-  echo "gpu_check: PASS (${#names[@]} checks)"
-  exit 0
-fi
-echo "gpu_check: FAIL"
-exit 1
+finish_checks gpu_check

@@ -4,6 +4,7 @@
 set -euo pipefail
 packages=(
   cmake ninja-build g++ pkg-config python3 python3-pip
+  python3-dev python3-venv  # the Python module: headers; CI installs it into a virtual environment
   libembree-dev          # Embree 3: CPU ray traversal
   nlohmann-json3-dev     # scene files
   libcli11-dev           # command line
@@ -31,12 +32,34 @@ if [ ${#missing[@]} -gt 0 ]; then
   $sudo apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
-# Python for the experiment reports (scripts/study.py), from PyPI.
-if ! python3 -c "import numpy, matplotlib" >/dev/null 2>&1; then
-  echo "install-deps: installing numpy and matplotlib from PyPI" >&2
-  python3 -m pip install -q numpy matplotlib || python3 -m pip install -q --break-system-packages numpy matplotlib
+# Python, from PyPI: numpy and matplotlib for the experiment reports (scripts/study.py);
+# nanobind and scikit-build-core build the Python module (python/), pytest tests it.
+py_missing=()
+for m in numpy:numpy matplotlib:matplotlib nanobind:nanobind scikit_build_core:scikit-build-core pytest:pytest; do
+  python3 -c "import ${m%%:*}" >/dev/null 2>&1 || py_missing+=("${m#*:}")
+done
+if [ ${#py_missing[@]} -gt 0 ]; then
+  echo "install-deps: installing ${py_missing[*]} from PyPI" >&2
+  python3 -m pip install -q "${py_missing[@]}" || python3 -m pip install -q --break-system-packages "${py_missing[@]}"
 fi
-if command -v nvidia-smi >/dev/null 2>&1 && [ -z "${OptiX_ROOT:-}" ]; then
-  echo "install-deps: an NVIDIA GPU is present but OptiX_ROOT is not set: the build will be CPU-only." >&2
-  echo "  Set OptiX_ROOT to an OptiX SDK folder holding include/optix.h (OptiX 9.0 for driver 580) to build the GPU backend." >&2
+# The GPU backend: with OptiX_ROOT unset, CMake fetches the OptiX headers that match
+# the NVIDIA driver (cmake/FetchOptiX.cmake); say what the build will do.
+driver=""
+if [ -r /proc/driver/nvidia/version ]; then
+  driver=$(sed -n '1s/.*[[:space:]]\([0-9][0-9]*\.[0-9][0-9.]*\)[[:space:]].*/\1/p' /proc/driver/nvidia/version)
+fi
+if [ -z "$driver" ] && command -v nvidia-smi >/dev/null 2>&1; then
+  driver=$(nvidia-smi --query-gpu=driver_version --format=csv,noheader 2>/dev/null | head -n 1 | tr -d ' ')
+fi
+if [ -n "$driver" ] && [ -z "${OptiX_ROOT:-}" ]; then
+  if [ "${driver%%.*}" -lt 580 ] 2>/dev/null; then
+    echo "install-deps: NVIDIA driver $driver supports no OptiX 9 (580 or later does): the build will be CPU-only" \
+         "unless you update the driver or set OptiX_ROOT." >&2
+  elif ! command -v nvcc >/dev/null 2>&1 && [ ! -x /usr/local/cuda/bin/nvcc ]; then
+    echo "install-deps: NVIDIA driver $driver found, but no CUDA compiler (nvcc): install the CUDA toolkit" \
+         "(12 or later) for the GPU backend, or the build will be CPU-only." >&2
+  else
+    echo "install-deps: NVIDIA driver $driver found: CMake will fetch the matching OptiX headers from NVIDIA's" \
+         "optix-dev repository and build the GPU backend (offline, it prints the command to run instead)." >&2
+  fi
 fi

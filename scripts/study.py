@@ -5,6 +5,7 @@ figures + CSV/JSON of every measurement).
 
     python3 scripts/study.py --out docs/results              # the full study (GPU)
     python3 scripts/study.py --preset smoke --out /tmp/smoke --check   # CI: tiny, on the CPU
+    PYTHONPATH=build/python python3 scripts/study.py --engine python ...   # through the Python module
 
 Presets say what each figure uses; the report repeats it. Ground truths are
 cached by `penumbra converge` (see --cache), so a rerun only renders what changed.
@@ -81,8 +82,29 @@ def log(msg):
     print(msg, file=sys.stderr, flush=True)
 
 
+def parse_set(assignment):
+    """"key=value" (penumbra's --set) as a key and a value (JSON where it parses, else a string)."""
+    key, _, text = assignment.partition("=")
+    try:
+        return key, json.loads(text)
+    except ValueError:
+        return key, text
+
+
 def converge(args, name, scene, cfg, sets=(), strategies=STRATEGIES, mis=("none",), out_dir=None):
     out = os.path.join(out_dir or args.out, "runs", name)
+    if args.engine == "python" and not args.report_only:
+        # The same experiment in this process: penumbra.converge() is the CLI's code.
+        import penumbra
+        log(f"study: penumbra.converge({scene!r}, out={out!r}, {cfg}, overrides={list(sets)})")
+        try:
+            penumbra.converge(scene, out=out, backend=args.backend, width=cfg["width"], height=cfg["height"],
+                              reference_spp=cfg["reference_spp"], max_spp=cfg["max_spp"], seeds=cfg["seeds"],
+                              strategies=list(strategies), mis=list(mis), cache=args.cache,
+                              overrides=dict(parse_set(s) for s in sets), verbose=True)
+        except penumbra.SceneError as e:
+            raise RunFailed(str(e)) from e
+        return load_summary(out, name)
     cmd = [args.penumbra, "converge", scene, "--out", out, "--backend", args.backend,
            "--width", str(cfg["width"]), "--height", str(cfg["height"]),
            "--reference-spp", str(cfg["reference_spp"]), "--max-spp", str(cfg["max_spp"]),
@@ -95,6 +117,10 @@ def converge(args, name, scene, cfg, sets=(), strategies=STRATEGIES, mis=("none"
         log("study: " + " ".join(cmd))
         if subprocess.run(cmd).returncode != 0:
             raise RunFailed(f"penumbra converge failed for {name} (its error is above)")
+    return load_summary(out, name)
+
+
+def load_summary(out, name):
     with open(os.path.join(out, "summary.json")) as f:
         summary = json.load(f)
     summary["run_dir"] = out
@@ -651,6 +677,9 @@ def main():
     ap.add_argument("--preset", choices=sorted(PRESETS), default="full")
     ap.add_argument("--out", default="docs/results", help="report folder")
     ap.add_argument("--penumbra", default=os.path.join(here, "..", "build", "penumbra"), help="the executable")
+    ap.add_argument("--engine", choices=["cli", "python"], default="cli",
+                    help="run each experiment with the executable (default) or the Python module penumbra "
+                         "(importable: pip install ., or PYTHONPATH=build/python)")
     ap.add_argument("--backend", default="auto", choices=["auto", "cpu", "optix"])
     ap.add_argument("--cache", help="ground-truth cache folder (default: penumbra's)")
     ap.add_argument("--part", choices=["thesis", "lab", "all"], default="all",
@@ -668,7 +697,12 @@ def main():
     args = ap.parse_args()
     if args.no_report:
         args.keep_runs = True
-    if not args.report_only and not os.path.exists(args.penumbra):
+    if args.engine == "python" and not args.report_only:
+        try:
+            import penumbra  # noqa: F401
+        except ImportError as e:
+            sys.exit(f"study: --engine python: cannot import penumbra ({e}): pip install ., or PYTHONPATH=build/python")
+    elif not args.report_only and not os.path.exists(args.penumbra):
         sys.exit(f"study: {args.penumbra}: no such executable (build first, or pass --penumbra)")
     if plt is None and not args.no_report:
         log("study: numpy and matplotlib are needed for the report (python3 -m pip install numpy matplotlib), "

@@ -27,7 +27,9 @@ struct FrameSpec {
 FrameSpec frame_spec(const Scene& scene);
 
 // Called from the rendering thread(s) with (samples done, samples total), where a
-// sample is one path through one pixel. Calls are serialised by the backend.
+// sample is one path through one pixel. Calls are serialised by the backend. An
+// exception it throws stops the render and leaves render() (the film then holds
+// part of the samples).
 using ProgressFn = std::function<void(uint64_t done, uint64_t total)>;
 
 // GPU time of one launch, measured with CUDA events (`render --stats`, `bench`).

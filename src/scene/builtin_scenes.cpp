@@ -155,10 +155,15 @@ std::string scene_data_file(const std::string& rel) {
   return (std::filesystem::path(roots.front()) / rel).lexically_normal().string();
 }
 
-// A file of this source tree's data/ folder (the glossy scene's sky).
+// A file of this source tree's data/ folder (the glossy scene's sky), or of
+// $PENUMBRA_DATA where that is set (the Python package sets it to its own copy).
 std::string source_data_file(const std::string& rel) {
-  std::filesystem::path p = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data" / rel;
   std::error_code ec;
+  if (const char* env = std::getenv("PENUMBRA_DATA"); env && *env) {
+    std::filesystem::path p = std::filesystem::path(env) / rel;
+    if (std::filesystem::is_regular_file(p, ec)) return p.lexically_normal().string();
+  }
+  std::filesystem::path p = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data" / rel;
   if (!std::filesystem::is_regular_file(p, ec)) {
     std::filesystem::path local = std::filesystem::path("data") / rel;
     if (std::filesystem::is_regular_file(local, ec)) return std::filesystem::absolute(local).lexically_normal().string();

@@ -29,7 +29,7 @@ struct Node {
   const std::string& source;
 
   [[noreturn]] void fail(const std::string& msg) const {
-    throw SceneError(source + ": " + (path.empty() ? std::string("(top level)") : path) + ": " + msg);
+    throw SceneError(source, path.empty() ? std::string("(top level)") : path, msg);
   }
   Node at(const std::string& key) const {
     return Node{j.at(key), path.empty() ? key : path + "." + key, source};

@@ -111,10 +111,15 @@ void parse_render(const Node& n, Scene& s) {
   if (n.has("spp")) r.spp = n.at("spp").integer(1, kMaxSpp);
   if (n.has("max_depth")) r.max_depth = n.at("max_depth").integer(0, kMaxDepth);
   if (n.has("rr_depth")) r.rr_depth = n.at("rr_depth").integer(1, kMaxDepth);
-  if (n.has("strategy")) r.strategy = parse_strategy(n.at("strategy").string(), s.source + ": " + n.path + ".strategy");
-  if (n.has("mis")) r.mis = parse_mis(n.at("mis").string(), s.source + ": " + n.path + ".mis");
-  if (n.has("light_selection"))
-    r.light_selection = parse_light_selection(n.at("light_selection").string(), s.source + ": " + n.path + ".light_selection");
+  // Names of the integrator's choices: an unknown one fails naming its field.
+  auto choice = [&](const char* key, auto* out, auto find, const std::string& names) {
+    if (!n.has(key)) return;
+    Node v = n.at(key);
+    if (!find(v.string(), out)) v.fail("unknown " + std::string(key) + " '" + v.string() + "' (expected one of: " + names + ")");
+  };
+  choice("strategy", &r.strategy, find_strategy, strategy_names());
+  choice("mis", &r.mis, find_mis, mis_names());
+  choice("light_selection", &r.light_selection, find_light_selection, light_selection_names());
   if (n.has("seed")) r.seed = uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max())));
 }
 
@@ -448,22 +453,36 @@ std::string enum_names(int count, const char* (*name)(E)) {
   return out;
 }
 template <class E>
-E parse_enum(const std::string& text, const std::string& where, const char* what, int count, const char* (*name)(E)) {
+bool find_enum(const std::string& text, int count, const char* (*name)(E), E* out) {
   for (int i = 0; i < count; ++i)
-    if (text == name(E(i))) return E(i);
+    if (text == name(E(i))) {
+      *out = E(i);
+      return true;
+    }
+  return false;
+}
+template <class E>
+E parse_enum(const std::string& text, const std::string& where, const char* what, int count, const char* (*name)(E)) {
+  E e;
+  if (find_enum(text, count, name, &e)) return e;
   throw SceneError(where + ": unknown " + what + " '" + text + "' (expected one of: " + enum_names(count, name) + ")");
 }
 }  // namespace
 
 std::string strategy_names() { return enum_names(kNumStrategies, strategy_name); }
+bool find_strategy(const std::string& name, Strategy* out) { return find_enum(name, kNumStrategies, strategy_name, out); }
 Strategy parse_strategy(const std::string& name, const std::string& where) {
   return parse_enum(name, where, "strategy", kNumStrategies, strategy_name);
 }
 std::string mis_names() { return enum_names(kNumMisModes, mis_name); }
+bool find_mis(const std::string& name, Mis* out) { return find_enum(name, kNumMisModes, mis_name, out); }
 Mis parse_mis(const std::string& name, const std::string& where) {
   return parse_enum(name, where, "MIS mode", kNumMisModes, mis_name);
 }
 std::string light_selection_names() { return enum_names(kNumLightSelections, light_selection_name); }
+bool find_light_selection(const std::string& name, LightSelection* out) {
+  return find_enum(name, kNumLightSelections, light_selection_name, out);
+}
 LightSelection parse_light_selection(const std::string& name, const std::string& where) {
   return parse_enum(name, where, "light selection", kNumLightSelections, light_selection_name);
 }
@@ -556,10 +575,22 @@ Scene parse_scene(const json& original, const std::string& source, const std::st
   return s;
 }
 
+void parse_frame_settings(const json& doc, const std::string& source, CameraDesc* camera, RenderSettings* render) {
+  Scene s;
+  s.source = source;
+  s.camera = *camera;
+  Node root{doc, "", s.source};
+  if (!doc.is_object()) root.fail("expected an object, got " + std::string(doc.type_name()));
+  if (root.has("render")) parse_render(root.at("render"), s);
+  if (root.has("camera")) parse_camera(root.at("camera"), s);
+  *camera = s.camera;
+  *render = s.render;
+}
+
 void apply_override(json& doc, const std::string& assignment, const std::string& source) {
   auto eq = assignment.find('=');
   auto fail = [&](const std::string& msg) -> void {
-    throw SceneError(source + ": --set " + assignment + ": " + msg);
+    throw SceneError(source, "--set " + assignment, msg);
   };
   if (eq == std::string::npos || eq == 0) fail("expected key=value, e.g. light.radius=0.05");
   std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
@@ -606,7 +637,7 @@ json load_scene_json(const std::string& name_or_path, const std::vector<std::str
     if (!in) {
       std::string names;
       for (const auto& bs : builtin_scenes()) names += (names.empty() ? "" : ", ") + std::string(bs.name);
-      throw SceneError(name_or_path + ": cannot open scene file (and it is not a built-in scene: " + names + ")");
+      throw SceneError(name_or_path, "", "cannot open scene file (and it is not a built-in scene: " + names + ")");
     }
     std::stringstream buf;
     buf << in.rdbuf();
@@ -616,7 +647,7 @@ json load_scene_json(const std::string& name_or_path, const std::vector<std::str
       std::string what = e.what();
       auto pos = what.find("] ");
       if (pos != std::string::npos) pos += 2;
-      throw SceneError(name_or_path + ": invalid JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
+      throw SceneError(name_or_path, "", "invalid JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
     }
   }
   for (const auto& o : overrides) apply_override(doc, o, *source);
@@ -637,7 +668,7 @@ Scene load_scene(const std::string& name_or_path, const std::vector<std::string>
       if (fs::is_regular_file(f, ec)) continue;
       std::string roots;
       for (const auto& r : scene_data_roots()) roots += (roots.empty() ? "" : ", ") + r;
-      throw SceneError(source + ": models[" + std::to_string(i) + "].file: '" + f + "' not found (looked in " + roots +
+      throw SceneError(source, "models[" + std::to_string(i) + "].file", "'" + f + "' not found (looked in " + roots +
                        "); set PENUMBRA_SCENES to a folder holding sponza/ and models/, or pass --set models." +
                        std::to_string(i) + ".file=PATH");
     }

@@ -26,10 +26,18 @@
 namespace pn {
 
 // Any problem with a scene or its overrides. what() is one line:
-// "<file>: <field>: <problem>".
+// "<file>: <field>: <problem>". Errors raised with the three parts keep them
+// (file(), field()) for callers that report them apart (the Python module).
 class SceneError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  using std::runtime_error::runtime_error;  // one message: file() and field() are empty
+  SceneError(const std::string& file, const std::string& field, const std::string& problem)
+      : std::runtime_error(file + ": " + (field.empty() ? "" : field + ": ") + problem), file_(file), field_(field) {}
+  const std::string& file() const { return file_; }
+  const std::string& field() const { return field_; }
+
+ private:
+  std::string file_, field_;
 };
 
 // Triangle geometry in its own (object) space. Placed in the world by one or
@@ -155,6 +163,13 @@ Scene load_scene(const std::string& name_or_path, const std::vector<std::string>
 nlohmann::json load_scene_json(const std::string& name_or_path,
                                const std::vector<std::string>& overrides, std::string* source);
 
+// The settings of one frame in a scene document: its "render" block, and its
+// "camera" block where it has one (else `camera` keeps its value: a model
+// file's camera), validated as parse_scene() validates them. What changes
+// between frames without a new scene (the Python module's Renderer).
+void parse_frame_settings(const nlohmann::json& doc, const std::string& source, CameraDesc* camera,
+                          RenderSettings* render);
+
 // Parses a scene from JSON. `source` names it in error messages and `base_dir`
 // resolves relative mesh file paths.
 Scene parse_scene(const nlohmann::json& j, const std::string& source, const std::string& base_dir);
@@ -177,12 +192,16 @@ const BuiltinScene* find_builtin(const std::string& name);
 // ../shared/scenes (relative to the current directory).
 std::vector<std::string> scene_data_roots();
 
-// Parse the names of strategies, MIS modes and light-selection methods; throw
-// SceneError naming `where` and listing the valid names.
+// The names of strategies, MIS modes and light-selection methods: find_*
+// looks one up (false if there is none of that name), parse_* throws SceneError
+// naming `where` and listing the valid names.
+bool find_strategy(const std::string& name, Strategy* out);
 Strategy parse_strategy(const std::string& name, const std::string& where);
 std::string strategy_names();  // "area, solid-angle, projected-solid-angle, bsdf"
+bool find_mis(const std::string& name, Mis* out);
 Mis parse_mis(const std::string& name, const std::string& where);
 std::string mis_names();  // "none, balance, power"
+bool find_light_selection(const std::string& name, LightSelection* out);
 LightSelection parse_light_selection(const std::string& name, const std::string& where);
 std::string light_selection_names();  // "uniform, power"
 

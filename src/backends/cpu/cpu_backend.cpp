@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <exception>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -225,6 +226,9 @@ class CpuBackend final : public Backend {
     std::atomic<uint64_t> done{0};
     std::atomic<uint64_t> nonfinite{0};
     std::mutex progress_mutex;
+    // An exception from `progress` (the Python module's Ctrl-C) stops the
+    // render: no thread takes another tile, and it is rethrown here.
+    std::exception_ptr stop;
     Tracer tracer{this};
     double* sum = film.sum();
     double* sum_sq = film.sum_sq();
@@ -258,7 +262,14 @@ class CpuBackend final : public Backend {
         uint64_t d = done += uint64_t(x1 - x0) * (y1 - y0) * count;
         if (progress) {
           std::lock_guard<std::mutex> lock(progress_mutex);
-          progress(d, total);
+          if (stop) return;
+          try {
+            progress(d, total);
+          } catch (...) {
+            stop = std::current_exception();
+            next_tile = num_tiles;
+            return;
+          }
         }
       }
     };
@@ -266,6 +277,7 @@ class CpuBackend final : public Backend {
     for (int i = 1; i < threads_; ++i) pool.emplace_back(worker);
     worker();
     for (auto& th : pool) th.join();
+    if (stop) std::rethrow_exception(stop);  // the film holds part of the samples: callers discard it
     film.add_samples(count);
     if (nonfinite.load() > 0)
       throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite.load()) +

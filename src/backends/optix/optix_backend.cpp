@@ -413,6 +413,7 @@ class OptixBackendImpl final : public OptixBackend {
   uint64_t accumulated_samples() const override { return accumulated_; }
   const void* device_rgba8() const override { return rgba_.as<void>(); }
   const double* device_sums() const override { return acc_sum_.as<double>(); }
+  const double* device_sums_sq() const override { return acc_sum_sq_.as<double>(); }
 
   void reset(const FrameSpec& frame) override {
     const int W = frame.camera.width, H = frame.camera.height;

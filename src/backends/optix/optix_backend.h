@@ -42,6 +42,8 @@ class OptixBackend : public Backend {
   // complete when accumulate() returns. The viewer's interop path adds them
   // into its own device images (src/apps/viewer/device_image.h).
   virtual const double* device_sums() const = 0;
+  // The per-pixel sums of squares, laid out alike (the Python module's variance).
+  virtual const double* device_sums_sq() const = 0;
   // Samples per pixel per launch; 0 = automatic (1 at 1 Mpixel and above, more
   // for small images so that each launch still fills the GPU).
   virtual void set_spp_per_launch(int spp) = 0;

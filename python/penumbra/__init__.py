@@ -1,0 +1,371 @@
+"""penumbra from Python: render, compare strategies and run convergence experiments.
+
+    import penumbra
+    img = penumbra.render("cornell-near", strategy="area", spp=16, width=320, height=180)
+    img.rgb          # float32 numpy array (180, 320, 3), linear radiance
+    img.variance     # the per-pixel variance of that mean
+    img.stats        # backend, device, times, rays, ...
+
+The same scenes, settings and seeds give the same images as ``penumbra render``
+(bit for bit on the CPU backend). See docs/python.md.
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+from ._errors import BackendError, PenumbraError, SceneError
+
+# The data of the built-in scenes (the glossy scene's sky) that a wheel carries.
+_DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+if os.path.isdir(_DATA):
+    os.environ.setdefault("PENUMBRA_DATA", _DATA)
+
+from . import _penumbra  # noqa: E402  (after PENUMBRA_DATA)
+from ._penumbra import Image  # noqa: E402
+
+__all__ = [
+    "BackendError", "ConvergeResult", "Image", "PenumbraError", "Renderer", "Scene", "SceneError", "build_info",
+    "compare", "converge", "load_scene", "read_exr", "render", "scenes",
+]
+
+ProgressFn = Callable[[int, int], None]
+"""Called as ``progress(done, total)`` with samples (paths) done and to do, on the
+calling thread, at most every 20 ms."""
+
+SceneLike = Union[str, "os.PathLike[str]", Mapping[str, Any], "Scene"]
+"""A built-in scene's name, a scene file, a scene document (a dict, as in a scene
+file), or a Scene."""
+
+_BACKENDS = ("auto", "cpu", "optix")
+
+
+def _jsonable(value: Any) -> Any:
+    """numpy scalars and arrays, tuples and paths as JSON values."""
+    if hasattr(value, "tolist"):  # numpy arrays and scalars
+        return value.tolist()
+    if isinstance(value, tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    raise TypeError(f"{type(value).__name__} is not a scene value")
+
+
+def _override_list(overrides: Optional[Mapping[str, Any]]) -> List[str]:
+    """{"light.radius": 0.05} -> ["light.radius=0.05"]: penumbra's --set syntax."""
+    if overrides is None:
+        return []
+    if not isinstance(overrides, Mapping):
+        raise TypeError(f"overrides must be a dict of 'key': value, not {type(overrides).__name__}")
+    out = []
+    for key, value in overrides.items():
+        if not isinstance(key, str) or not key:
+            raise TypeError(f"override keys are non-empty strings such as 'light.radius', not {key!r}")
+        out.append(f"{key}={json.dumps(value, default=_jsonable)}")
+    return out
+
+
+def _frame_overrides(strategy: Optional[str] = None, spp: Optional[int] = None, width: Optional[int] = None,
+                     height: Optional[int] = None, seed: Optional[int] = None, max_depth: Optional[int] = None,
+                     mis: Optional[str] = None) -> Dict[str, Any]:
+    """The keyword arguments of render() as scene overrides (validated by the scene parser)."""
+    named = {"render.strategy": strategy, "render.spp": spp, "render.width": width, "render.height": height,
+             "render.seed": seed, "render.max_depth": max_depth, "render.mis": mis}
+    return {k: v for k, v in named.items() if v is not None}
+
+
+def _check_backend(backend: str) -> str:
+    if backend not in _BACKENDS:
+        raise ValueError(f"backend must be one of {', '.join(_BACKENDS)}, not {backend!r}")
+    return backend
+
+
+def _threads(threads: Optional[int]) -> int:
+    if threads is None:
+        return 0
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
+        raise ValueError(f"threads must be a non-negative integer (0: all cores), not {threads!r}")
+    return threads
+
+
+def scenes() -> List[str]:
+    """The names of the built-in scenes (``penumbra scenes``)."""
+    return [name for name, _ in _penumbra.scenes()]
+
+
+def build_info() -> Dict[str, Any]:
+    """What this module was built with: ``optix`` (the GPU backend is in it),
+    ``gpu_available`` and, if not, ``gpu_unavailable_reason``, ``strategies``,
+    ``git_commit``."""
+    return _penumbra.build_info()
+
+
+class Scene:
+    """A parsed, validated scene: load one with :func:`load_scene`.
+
+    Scenes are immutable; :meth:`with_overrides` makes a changed copy."""
+
+    __slots__ = ("_state",)
+
+    def __init__(self, state: "_penumbra.Scene"):
+        self._state = state
+
+    @property
+    def source(self) -> str:
+        """Where the scene came from: ``builtin:<name>``, a file path, or ``<dict>``."""
+        return self._state.source
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The scene document after overrides, as a dict (save it with json.dump and
+        render the file, or pass it to load_scene)."""
+        return self._state.to_py()
+
+    def with_overrides(self, overrides: Mapping[str, Any]) -> "Scene":
+        """A copy with more overrides, e.g. ``{"light.radius": 0.05}`` (see load_scene)."""
+        return Scene(self._state.with_overrides(_override_list(overrides)))
+
+    def counts(self) -> Dict[str, int]:
+        """Triangles, spheres, lights, materials, meshes, instances and textures."""
+        return self._state.counts()
+
+    def __repr__(self) -> str:
+        c = self.counts()
+        return f"<penumbra.Scene {self.source}: {c['triangles']} triangles, {c['spheres']} spheres, {c['lights']} lights>"
+
+
+def load_scene(scene: SceneLike, overrides: Optional[Mapping[str, Any]] = None) -> Scene:
+    """Loads and validates a scene.
+
+    Args:
+        scene: a built-in scene's name (see :func:`scenes`), a scene file (JSON,
+            docs/scene-format.md), a scene document as a dict (relative file paths
+            in it are relative to the current directory), or a Scene.
+        overrides: scene values to change, as ``penumbra render --set`` does:
+            ``{"light.radius": 0.05, "camera.fov": 30, "render.strategy": "area"}``
+            ("light." is short for "lights.0."; array elements by index).
+
+    Raises:
+        SceneError: with ``file`` and ``field``, for anything invalid.
+    """
+    ov = _override_list(overrides)
+    if isinstance(scene, Scene):
+        return scene.with_overrides(overrides or {})
+    if isinstance(scene, Mapping):
+        try:
+            text = json.dumps(scene, default=_jsonable, allow_nan=False)
+        except (TypeError, ValueError) as e:
+            raise SceneError(f"<dict>: not a JSON document: {e}", "<dict>", None) from None
+        return Scene(_penumbra.load_scene_json(text, "<dict>", os.getcwd(), ov))
+    if isinstance(scene, (str, os.PathLike)):
+        return Scene(_penumbra.load_scene_name(os.fspath(scene), ov))
+    raise TypeError(f"scene must be a name, a path, a dict or a Scene, not {type(scene).__name__}")
+
+
+def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[int] = None,
+           width: Optional[int] = None, height: Optional[int] = None, seed: Optional[int] = 0,
+           max_depth: Optional[int] = None, backend: str = "auto", mis: Optional[str] = None,
+           denoise: bool = False, overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
+           progress: Optional[ProgressFn] = None) -> Image:
+    """Renders a scene and returns the image.
+
+    Every setting left at None keeps the scene's own value, as on the command
+    line: ``render("cornell-sphere", spp=64, seed=3, backend="cpu")`` gives the
+    image of ``penumbra render cornell-sphere --spp 64 --seed 3 --backend cpu``.
+
+    Args:
+        scene: a built-in scene's name, a scene file, a dict or a Scene (see load_scene).
+        strategy: "area", "solid-angle" or "bsdf".
+        spp: samples per pixel.
+        width, height: the image size in pixels.
+        seed: the random seed: the image is a pure function of scene, settings and seed
+            (None: the scene's own, as on the command line).
+        max_depth: the maximum number of bounces.
+        backend: "cpu", "optix" (the GPU) or "auto" (the GPU where it works, else the CPU;
+            ``image.stats["note"]`` says which and why).
+        mis: multiple importance sampling ("none", "balance" or "power"), passed as the
+            scene value render.mis where this penumbra's scenes have it.
+        denoise: not available yet: raises BackendError.
+        overrides: other scene values to change (see load_scene).
+        threads: CPU threads (default: all cores).
+        progress: called as progress(done, total) while rendering.
+
+    Raises:
+        SceneError: a bad scene or setting (names the field).
+        BackendError: the backend cannot run here, or failed.
+        KeyboardInterrupt: Ctrl-C stops the render.
+    """
+    if denoise:
+        raise BackendError("denoise=True: denoising (the OptiX AI denoiser) is not available in this penumbra yet")
+    s = load_scene(scene, overrides)
+    r = Renderer(s, backend=backend, strategy=strategy, spp=spp, width=width, height=height, seed=seed,
+                 max_depth=max_depth, mis=mis, threads=threads)
+    return r.render(r.settings["spp"], progress=progress)
+
+
+class Renderer:
+    """Progressive rendering of one scene on one backend.
+
+        r = penumbra.Renderer("cornell-sphere", backend="cpu", width=320, height=180)
+        for _ in range(8):
+            img = r.render(4)            # adds 4 samples per pixel; img has them all
+        r.set(strategy="area")           # frame settings: no rebuild, the image starts over
+        r.set(overrides={"light.radius": 0.1})  # the light: the backend is rebuilt
+
+    Changes of strategy, depth, seed, size, camera and mis reuse the backend (its
+    acceleration structures and device data); other scene changes rebuild it
+    (``builds`` counts how often). Any change starts the accumulation over.
+    """
+
+    def __init__(self, scene: SceneLike, *, backend: str = "auto", strategy: Optional[str] = None,
+                 spp: Optional[int] = None, width: Optional[int] = None, height: Optional[int] = None,
+                 seed: Optional[int] = 0, max_depth: Optional[int] = None, mis: Optional[str] = None,
+                 overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None):
+        s = scene if isinstance(scene, Scene) else load_scene(scene)
+        frame = _frame_overrides(strategy, spp, width, height, seed, max_depth, mis)
+        frame.update(overrides or {})
+        self._r = _penumbra.Renderer(s._state, _check_backend(backend), _threads(threads), _override_list(frame))
+
+    def render(self, spp: int = 1, *, progress: Optional[ProgressFn] = None) -> Image:
+        """Adds ``spp`` samples per pixel and returns the image of all samples so far.
+
+        Ctrl-C stops it with KeyboardInterrupt; the samples of earlier calls stay."""
+        if isinstance(spp, bool) or not isinstance(spp, int) or not 1 <= spp <= (1 << 24):
+            raise ValueError(f"spp must be an integer in [1, {1 << 24}], not {spp!r}")
+        self._r.render(spp, progress)
+        return self._r.image()
+
+    def image(self) -> Image:
+        """The image of all samples so far (a snapshot: later samples do not change it)."""
+        return self._r.image()
+
+    def reset(self) -> None:
+        """Drops the samples: the next render() starts a new image."""
+        self._r.reset()
+
+    def set(self, *, strategy: Optional[str] = None, width: Optional[int] = None, height: Optional[int] = None,
+            seed: Optional[int] = None, max_depth: Optional[int] = None, mis: Optional[str] = None,
+            overrides: Optional[Mapping[str, Any]] = None) -> None:
+        """Changes settings or scene values (see the class) and starts the image over.
+
+        Raises SceneError, leaving everything as it was, if a value is invalid."""
+        frame = _frame_overrides(strategy, None, width, height, seed, max_depth, mis)
+        frame.update(overrides or {})
+        self._r.update(_override_list(frame))
+
+    @property
+    def spp(self) -> int:
+        """Samples per pixel accumulated so far."""
+        return self._r.samples
+
+    @property
+    def backend(self) -> str:
+        """"cpu" or "optix"."""
+        return self._r.backend
+
+    @property
+    def device(self) -> str:
+        """The device, e.g. "2 CPU threads (Embree 3.13.5)" or the GPU, driver and OptiX."""
+        return self._r.device
+
+    @property
+    def note(self) -> str:
+        """Which backend was chosen and why (as ``penumbra render`` prints it)."""
+        return self._r.note
+
+    @property
+    def builds(self) -> int:
+        """How many times the backend was built for this renderer (1 + rebuilds)."""
+        return self._r.builds
+
+    @property
+    def scene(self) -> Scene:
+        """The scene with every change made so far."""
+        return Scene(self._r.scene)
+
+    @property
+    def settings(self) -> Dict[str, Any]:
+        """width, height, spp (the scene's), strategy, max_depth, rr_depth, seed."""
+        return self._r.settings
+
+    def __repr__(self) -> str:
+        return f"<penumbra.Renderer {self._r.scene.source} on {self.backend}: {self.spp} spp>"
+
+
+@dataclass
+class ConvergeResult:
+    """What ``penumbra converge`` writes: ``measurements`` (the rows of
+    measurements.csv, one dict per render: scene, strategy, spp, seed, time_ms,
+    rmse, rmse_nolight, relmse, relmse_nolight) and ``summary`` (summary.json:
+    settings, reference, per-strategy points, fits, efficiency)."""
+
+    measurements: List[Dict[str, Any]] = field(default_factory=list)
+    summary: Dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def fits(self) -> Dict[str, Dict[str, Any]]:
+        """Per strategy: the log-log fits of RMSE against spp (fit_rmse,
+        fit_rmse_nolight: slope, intercept, spp_to_threshold, ms_to_threshold),
+        ms_per_spp, efficiency and efficiency_nolight."""
+        return {name: {k: v for k, v in s.items() if k != "points"}
+                for name, s in self.summary.get("strategies", {}).items()}
+
+
+def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str] = ("area", "solid-angle"),
+             mis: Sequence[str] = ("none",), max_spp: int = 1024, seeds: int = 4, reference_spp: int = 65536,
+             reference_strategy: str = "solid-angle", reference_mis: str = "power",
+             width: Optional[int] = None, height: Optional[int] = None,
+             overrides: Optional[Mapping[str, Any]] = None, backend: str = "auto", threads: Optional[int] = None,
+             cache: Optional[str] = None, out: Optional[str] = None, threshold: float = 0.05, crop_spp: int = 32,
+             crop: Optional[Sequence[int]] = None, fit_min_spp: int = 4, verbose: bool = False,
+             progress: Optional[ProgressFn] = None) -> ConvergeResult:
+    """One convergence experiment, as ``penumbra converge`` runs it: a ground truth
+    (cached under ``cache``, default ~/.cache/penumbra), then 1, 2, 4, ... max_spp
+    spp for each technique (every strategy with every ``mis`` mode; named
+    "area" for MIS none, "area+power" otherwise) with ``seeds`` seeds, errors
+    against the ground truth, fits. With ``out``, also writes the CLI's files there (measurements.csv,
+    summary.json, crops, images).
+
+    ``scene`` is a built-in scene's name or a scene file; ``overrides`` as in
+    load_scene. The other arguments are the CLI's options of the same names.
+    """
+    if not isinstance(scene, (str, os.PathLike)):
+        raise TypeError("converge() takes a built-in scene's name or a scene file (save a dict with json.dump)")
+    if isinstance(strategies, str):
+        strategies = [strategies]
+    if isinstance(mis, str):
+        mis = [mis]
+    rows, summary = _penumbra.converge(
+        os.fspath(scene), _override_list(overrides), os.fspath(out) if out else "", os.fspath(cache) if cache else "",
+        _check_backend(backend), list(strategies), list(mis), reference_strategy, reference_mis, width or 0,
+        height or 0, max_spp, seeds,
+        reference_spp, crop_spp, fit_min_spp, _threads(threads), float(threshold), list(crop or []), verbose,
+        progress)
+    return ConvergeResult(rows, summary)
+
+
+def _mean_and_variance(x: Any) -> Tuple[Any, Any]:
+    import numpy as np
+
+    if isinstance(x, Image):
+        return x.rgb, x.variance
+    mean, var = x
+    return np.ascontiguousarray(mean, dtype=np.float32), np.ascontiguousarray(var, dtype=np.float32)
+
+
+def compare(a: Union[Image, Tuple[Any, Any]], b: Union[Image, Tuple[Any, Any]], *, max_mean_rel_diff: float = 0.01,
+            max_image_z: float = 4.0, outlier_z: float = 5.0, max_outlier_fraction: float = 0.002) -> Dict[str, Any]:
+    """Are two renders the same image, statistically? ``penumbra compare``'s test
+    (src/render/compare.h): per-pixel z = (a - b) / sqrt(var_a + var_b), the z of
+    the image means and their relative difference. ``a`` and ``b`` are Images or
+    (mean, variance) array pairs. Returns a dict with ``pass``, ``mean_z2``,
+    ``image_z``, ``max_abs_z``, ``outliers``, ``summary`` (one line), ..."""
+    am, av = _mean_and_variance(a)
+    bm, bv = _mean_and_variance(b)
+    return _penumbra.compare(am, av, bm, bv, max_mean_rel_diff, max_image_z, outlier_z, max_outlier_fraction)
+
+
+def read_exr(path: Union[str, "os.PathLike[str]"]) -> Any:
+    """An EXR image (as ``penumbra render -o x.exr`` writes) as a float32 array (H, W, 3)."""
+    return _penumbra.read_exr(os.fspath(path))

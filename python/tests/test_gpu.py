@@ -1,0 +1,89 @@
+"""The GPU backend from Python: DLPack without a host copy, and the same image
+as the CPU. Runs only where a GPU is usable (scripts/python_gpu_check.sh runs it
+on the GPU machine); skipped elsewhere."""
+import numpy as np
+import pytest
+
+import penumbra
+from conftest import gpu_reason
+from test_interrupt import interrupted_render
+
+pytestmark = pytest.mark.skipif(gpu_reason() is not None, reason=str(gpu_reason()))
+
+SIZE = dict(width=96, height=54)
+
+
+def consumers():
+    out = []
+    try:
+        import torch
+        if torch.cuda.is_available():
+            out.append(("torch", lambda x: torch.from_dlpack(x), lambda t: t.cpu().numpy(),
+                        lambda t: (t.is_cuda, t.data_ptr())))
+    except ImportError:
+        pass
+    try:
+        import cupy
+        out.append(("cupy", lambda x: cupy.from_dlpack(x), lambda t: cupy.asnumpy(t),
+                    lambda t: (True, t.data.ptr)))
+    except ImportError:
+        pass
+    return out
+
+
+def test_gpu_image_stays_on_the_gpu_and_matches_its_host_copy():
+    kinds = consumers()
+    if not kinds:
+        pytest.skip("neither torch nor cupy with CUDA is installed")
+    img = penumbra.render("cornell-sphere", spp=16, backend="optix", **SIZE)
+    assert img.on_gpu and img.stats["backend"] == "optix"
+    assert img.__dlpack_device__()[0] == 2  # kDLCUDA
+    for name, take, to_host, where in kinds:
+        t = take(img.rgb_dlpack())
+        on_cuda, ptr = where(t)
+        assert on_cuda, name
+        assert tuple(t.shape) == (54, 96, 3), name
+        t2 = take(img)  # __dlpack__
+        assert where(t2)[1] == ptr, name  # the same device buffer: no copy
+        v = take(img.variance_dlpack())
+        assert np.array_equal(to_host(t), img.rgb), name
+        assert np.array_equal(to_host(v), img.variance), name
+
+
+def test_gpu_render_agrees_with_the_cpu():
+    for strategy in ("area", "solid-angle"):
+        gpu = penumbra.render("cornell-near", strategy=strategy, spp=1024, seed=1, backend="optix", **SIZE)
+        cpu = penumbra.render("cornell-near", strategy=strategy, spp=1024, seed=2, backend="cpu", **SIZE)
+        r = penumbra.compare(gpu, cpu)
+        assert r["pass"], r["summary"]
+
+
+def test_gpu_progressive_renderer():
+    r = penumbra.Renderer("cornell-sphere", backend="optix", seed=3, **SIZE)
+    assert r.backend == "optix"
+    a = r.render(4)
+    b = r.render(4)
+    assert (a.spp, b.spp, r.spp) == (4, 8, 8)
+    once = penumbra.render("cornell-sphere", spp=8, seed=3, backend="optix", **SIZE)
+    np.testing.assert_allclose(b.rgb, once.rgb, rtol=1e-5, atol=1e-7)
+    r.set(strategy="area")
+    assert r.builds == 1 and r.spp == 0
+    assert r.render(2).stats["strategy"] == "area"
+    assert b.stats["rays"] > 0 and b.stats["gpu_ms"] > 0
+
+
+def test_gpu_same_seed_same_image_as_the_cli(cli, tmp_path):
+    import subprocess
+    out = tmp_path / "gpu.exr"
+    subprocess.run([cli, "render", "cornell-sphere", "--backend", "optix", "--spp", "8", "--seed", "3",
+                    "--width", "96", "--height", "54", "-o", str(out)], check=True, capture_output=True)
+    img = penumbra.render("cornell-sphere", spp=8, seed=3, backend="optix", **SIZE)
+    # Same launches, same device sums, the host's arithmetic on the device.
+    assert np.array_equal(penumbra.read_exr(out), img.rgb)
+
+
+def test_ctrl_c_interrupts_a_gpu_render():
+    # 1 spp per launch at 1920x1080: 100000 spp would take minutes.
+    seconds, spp = interrupted_render("optix", 1920, 1080, 100000)
+    assert seconds < 5.0
+    assert spp >= 1  # launches that started before the interrupt completed, and count

@@ -1,0 +1,22 @@
+# PASS/FAIL bookkeeping of the GPU-machine check scripts (gpu_check.sh,
+# python_gpu_check.sh), sourced by them:
+#   record NAME STATUS     prints NAME with PASS (STATUS 0) or FAIL, and remembers it
+#   finish_checks TITLE    prints every verdict and "TITLE: PASS (N checks)" or "TITLE: FAIL";
+#                          returns 0 only if every check passed
+declare -a names=() verdicts=()
+failed=0
+record() {
+  names+=("$1")
+  if [[ $2 -eq 0 ]]; then verdicts+=("PASS"); else verdicts+=("FAIL"); failed=1; fi
+  printf '%-52s %s\n' "$1" "${verdicts[-1]}"
+}
+finish_checks() {
+  local i
+  for i in "${!names[@]}"; do printf '  %-4s %s\n' "${verdicts[$i]}" "${names[$i]}"; done
+  if [[ $failed -eq 0 ]]; then
+    echo "$1: PASS (${#names[@]} checks)"
+    return 0
+  fi
+  echo "$1: FAIL"
+  return 1
+}

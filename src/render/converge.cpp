@@ -1,0 +1,341 @@
+// One convergence experiment: see converge.h. Moved from `penumbra converge`
+// (apps/cmd_converge.cpp), which now parses its options and calls run_converge().
+#include "render/converge.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "apps/progress.h"
+#include "io/image.h"
+#include "io/npy.h"
+#include "render/metrics.h"
+#include "render/technique.h"
+#include "scene/scene.h"
+
+#ifndef PENUMBRA_GIT_COMMIT
+#define PENUMBRA_GIT_COMMIT "unknown"
+#endif
+
+namespace pn {
+namespace {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+// FNV-1a: a stable hash for cache keys (std::hash is not stable across builds).
+uint64_t fnv1a(const std::string& s) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+// Renders `spp` samples (from sample `first`) and returns the GPU time of the
+// launches when the backend measures it, else the wall time, in milliseconds.
+double timed_render(Backend& b, const FrameSpec& f, Film& film, uint32_t first, uint32_t spp,
+                    const ProgressFn& progress = nullptr) {
+  auto t0 = std::chrono::steady_clock::now();
+  b.render(f, film, first, spp, progress);
+  double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  RenderStats st = b.last_render_stats();
+  if (st.launches.empty()) return wall;
+  double gpu = 0;
+  for (const auto& l : st.launches) gpu += l.trace_ms + l.accumulate_ms;
+  return gpu;
+}
+
+// The pixel rectangle of the figure-4.1 crop: a square around the projection of
+// the first light's centre, a third of the image high, clamped to the image.
+std::vector<int> auto_crop(const Scene& s) {
+  const int W = s.render.width, H = s.render.height;
+  int size = std::max(8, H / 3);
+  int cx = W / 2, cy = H / 2;
+  if (!s.lights.empty()) {
+    Camera cam = s.make_camera();
+    Vec3 d = s.lights[0].p - cam.eye;
+    float z = dot(d, cam.forward);
+    if (z > 0) {
+      float sx = dot(d, cam.right) / length_sq(cam.right) / z, sy = dot(d, cam.up) / length_sq(cam.up) / z;
+      cx = int((sx + 1) * 0.5f * W);
+      cy = int((1 - sy) * 0.5f * H);
+    }
+  }
+  int x = std::clamp(cx - size / 2, 0, std::max(0, W - size)), y = std::clamp(cy - size / 2, 0, std::max(0, H - size));
+  return {x, y, std::min(size, W), std::min(size, H)};
+}
+
+void write_crop(const std::string& path, const std::vector<float>& img, int W, const std::vector<int>& c) {
+  std::vector<float> out(size_t(c[2]) * c[3] * 3);
+  for (int y = 0; y < c[3]; ++y)
+    for (int x = 0; x < c[2]; ++x)
+      for (int k = 0; k < 3; ++k) out[(size_t(y) * c[2] + x) * 3 + k] = img[(size_t(c[1] + y) * W + c[0] + x) * 3 + k];
+  write_npy(path, c[3], c[2], 3, out.data());
+}
+
+}  // namespace
+
+ConvergeResult run_converge(const ConvergeOptions& a) {
+  std::vector<std::string> overrides = a.sets;
+  if (a.width) overrides.push_back("render.width=" + std::to_string(a.width));
+  if (a.height) overrides.push_back("render.height=" + std::to_string(a.height));
+  std::string source;
+  json doc = load_scene_json(a.scene, overrides, &source);
+  Scene scene = load_scene(a.scene, overrides);
+  const int W = scene.render.width, H = scene.render.height;
+  std::vector<Strategy> strategy_list;
+  for (const auto& s : a.strategies) strategy_list.push_back(parse_strategy(s, "--strategies"));
+  std::vector<Mis> modes;
+  for (const auto& m : a.mis) modes.push_back(parse_mis(m, "--mis"));
+  const std::vector<Technique> techniques = cross_techniques(strategy_list, modes);
+  const Technique ref_technique{parse_strategy(a.reference_strategy, "--reference-strategy"),
+                                parse_mis(a.reference_mis, "--reference-mis")};
+  if (a.max_spp < 1 || a.seeds < 1 || a.reference_spp < 1 || a.crop_spp < 1)
+    throw std::invalid_argument("converge: --max-spp, --seeds, --reference-spp and --crop-spp must be >= 1");
+  std::vector<int> crop = a.crop.empty() ? auto_crop(scene) : a.crop;
+  if (crop.size() != 4 || crop[2] < 1 || crop[3] < 1 || crop[0] < 0 || crop[1] < 0 || crop[0] + crop[2] > W ||
+      crop[1] + crop[3] > H)
+    throw std::invalid_argument("converge: --crop must be x,y,w,h inside the " + std::to_string(W) + "x" +
+                                std::to_string(H) + " image");
+
+  const std::string& out = a.out;  // "": write no files but the cached reference
+  if (!out.empty()) fs::create_directories(out);
+  std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
+  fs::create_directories(cache);
+
+  BackendOptions opts;
+  opts.threads = a.threads;
+  std::string note;
+  std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
+  auto log = [&](const char* fmt, auto... args) {
+    if (a.verbose) std::fprintf(stderr, fmt, args...);
+  };
+  log("%s\n", note.c_str());
+  // Progress of one render to a bar (when verbose) and to the caller's hook.
+  auto progress_to = [&](ProgressBar& bar, uint64_t base, uint64_t total) -> ProgressFn {
+    return [&bar, &a, base, total](uint64_t done, uint64_t) {
+      if (a.verbose) bar.update(base + done, total);
+      if (a.progress) a.progress(base + done, total);
+    };
+  };
+
+  // --- Ground truth (cached) --------------------------------------------------
+  // The key covers everything that changes the expected image and its noise:
+  // the scene document after overrides (geometry, camera, resolution, depth),
+  // the reference spp and strategy. Seed 0x5EED is kept for references only.
+  const uint32_t kRefSeed = 0x5EED;
+  json key_doc = doc;
+  key_doc["render"].erase("spp");
+  key_doc["render"].erase("strategy");
+  key_doc["render"].erase("mis");
+  key_doc["render"].erase("seed");
+  std::ostringstream key;
+  key << std::hex << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(ref_technique));
+  std::string ref_path = cache + "/ref-" + key.str() + ".exr";
+  std::string ref_var_path = cache + "/ref-" + key.str() + "_var.exr";
+  std::vector<float> ref, ref_var;
+  double ref_seconds = 0;
+  bool cached = fs::exists(ref_path) && fs::exists(ref_var_path);
+  if (cached) {
+    int w, h, wv, hv;
+    ref = read_exr(ref_path, &w, &h);
+    ref_var = read_exr(ref_var_path, &wv, &hv);
+    if (w != W || h != H || wv != W || hv != H)
+      throw std::runtime_error(ref_path + ": cached reference has the wrong size");
+    log("reference: %s (cached)\n", ref_path.c_str());
+  } else {
+    FrameSpec f = frame_spec(scene);
+    f.integrator.strategy = ref_technique.strategy;
+    f.integrator.mis = ref_technique.mis;
+    f.seed = kRefSeed;
+    Film film(W, H);
+    ProgressBar bar("reference " + std::to_string(a.reference_spp) + " spp");
+    // In chunks, so that the progress bar moves on the GPU too.
+    const uint32_t chunk = 256;
+    uint64_t total = uint64_t(W) * H * a.reference_spp;
+    for (uint32_t s = 0; s < uint32_t(a.reference_spp); s += chunk) {
+      uint32_t n = std::min<uint32_t>(chunk, uint32_t(a.reference_spp) - s);
+      backend->render(f, film, s, n, progress_to(bar, uint64_t(W) * H * s, total));
+    }
+    ref_seconds = bar.finish();
+    ref = film.mean();
+    ref_var = film.variance_of_mean();
+    write_image(ref_var_path, W, H, ref_var);
+    write_image(ref_path + ".tmp.exr", W, H, ref);
+    fs::rename(ref_path + ".tmp.exr", ref_path);  // last: a reference exists only when complete
+    log("reference: %s (%d spp, %s)\n", ref_path.c_str(), a.reference_spp, format_duration(ref_seconds).c_str());
+  }
+  if (!out.empty()) write_image(out + "/reference.png", W, H, ref);
+
+  // --- Pixels that see a light directly -----------------------------------------
+  // A render with max depth 0 holds only emission seen by camera rays; any
+  // pixel with some of it (also partially covered ones) is left out of the
+  // "no light" metrics.
+  std::vector<uint8_t> mask(size_t(W) * H, 1);
+  {
+    FrameSpec f = frame_spec(scene);
+    f.integrator.max_depth = 0;
+    Film film(W, H);
+    backend->render(f, film, 0, 16, a.progress);
+    auto m = film.mean();
+    for (size_t p = 0; p < mask.size(); ++p)
+      if (m[3 * p] + m[3 * p + 1] + m[3 * p + 2] > 0.f) mask[p] = 0;
+  }
+  size_t light_pixels = std::count(mask.begin(), mask.end(), 0);
+
+  // The reference is itself noisy: its expected squared error, the mean of its
+  // per-pixel variance, is added to every measured MSE. Reported so that the
+  // reader can tell where measured errors reach that floor.
+  double floor_all = 0, floor_nolight = 0;
+  size_t n_nolight = 0;
+  for (size_t p = 0; p < mask.size(); ++p) {
+    double v = (double(ref_var[3 * p]) + ref_var[3 * p + 1] + ref_var[3 * p + 2]) / 3;
+    floor_all += v;
+    if (mask[p]) {
+      floor_nolight += v;
+      ++n_nolight;
+    }
+  }
+  floor_all = std::sqrt(floor_all / double(mask.size()));
+  floor_nolight = n_nolight ? std::sqrt(floor_nolight / double(n_nolight)) : 0.0;
+
+  // --- Convergence runs ------------------------------------------------------------
+  std::vector<int> spps;
+  for (int s = 1; s <= a.max_spp; s *= 2) spps.push_back(s);
+  ConvergeResult result;
+  json& summary = result.summary;
+  summary["scene"] = a.scene;
+  summary["source"] = source;
+  summary["width"] = W;
+  summary["height"] = H;
+  summary["max_depth"] = scene.render.max_depth;
+  summary["overrides"] = a.sets;
+  summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)}, {"file", ref_path},
+                          {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed},
+                          {"rmse_floor", floor_all}, {"rmse_floor_nolight", floor_nolight}};
+  summary["git_commit"] = PENUMBRA_GIT_COMMIT;  // of the binary that made the runs
+  summary["backend"] = backend->name();
+  summary["device"] = backend->device_name();
+  json info = json::object();
+  for (const auto& [k, v] : backend->device_info()) info[k] = v;
+  summary["device_info"] = info;
+  summary["light_pixels"] = light_pixels;
+  summary["threshold_rmse"] = a.threshold;
+  summary["fit_min_spp"] = a.fit_min_spp;
+  summary["crop"] = crop;
+  summary["crop_spp"] = a.crop_spp;
+  summary["metrics"] =
+      "RMSE: sqrt(mean over pixels and RGB channels of (test - ref)^2), linear radiance, unclamped (thesis eq. 4.1); "
+      "relMSE: mean of (test - ref)^2 / (ref^2 + 0.01) (pbrt); *_nolight: without pixels that see a light directly";
+  if (!out.empty()) write_crop(out + "/crop_reference.npy", ref, W, crop);
+
+  uint64_t per_strategy = 0;
+  for (int s : spps) per_strategy += uint64_t(s) * a.seeds;
+  ProgressBar bar("converging");
+  uint64_t done_spp = 0, total_spp = per_strategy * techniques.size();
+  for (const Technique& tq : techniques) {
+    const std::string name = technique_name(tq);
+    FrameSpec f = frame_spec(scene);
+    f.integrator.strategy = tq.strategy;
+    f.integrator.mis = tq.mis;
+    std::vector<double> lx, ly, lyn;
+    json points = json::array();
+    double ms_per_spp = 0;
+    for (int spp : spps) {
+      double rm = 0, rmn = 0, rel = 0, reln = 0, ms = 0;
+      for (int seed = 1; seed <= a.seeds; ++seed) {
+        f.seed = uint32_t(seed);
+        Film film(W, H);
+        double t = timed_render(*backend, f, film, 0, uint32_t(spp), a.progress);
+        auto img = film.mean();
+        ErrorMetrics all = error_metrics(img, ref), nolight = error_metrics(img, ref, &mask);
+        result.measurements.push_back(
+            {name, spp, seed, t, all.rmse, nolight.rmse, all.relmse, nolight.relmse});
+        rm += all.rmse / a.seeds;
+        rmn += nolight.rmse / a.seeds;
+        rel += all.relmse / a.seeds;
+        reln += nolight.relmse / a.seeds;
+        ms += t / a.seeds;
+        done_spp += spp;
+        if (a.verbose) bar.update(done_spp, total_spp);
+        if (spp == a.crop_spp && seed == 1 && !out.empty()) {
+          write_crop(out + "/crop_" + name + ".npy", img, W, crop);
+          write_image(out + "/image_" + name + "_" + std::to_string(spp) + "spp.png", W, H, img);
+        }
+      }
+      points.push_back({{"spp", spp}, {"rmse", rm}, {"rmse_nolight", rmn}, {"relmse", rel}, {"relmse_nolight", reln},
+                        {"time_ms", ms}});
+      if (spp >= a.fit_min_spp) {
+        lx.push_back(std::log(double(spp)));
+        ly.push_back(std::log(rm));
+        lyn.push_back(std::log(rmn));
+      }
+      ms_per_spp = ms / spp;  // from the largest spp: launch overheads amortised
+    }
+    json js = {{"points", points}, {"ms_per_spp", ms_per_spp}, {"strategy", strategy_name(tq.strategy)},
+               {"mis", mis_name(tq.mis)}};
+    auto fit_json = [&](const std::vector<double>& y, const char* name) {
+      if (lx.size() < 2) return;
+      LineFit fit = fit_line(lx, y);
+      // Time to reach the threshold, from the fitted line: N = exp((ln t - a) / b).
+      double n = fit.b < 0 ? std::exp((std::log(a.threshold) - fit.a) / fit.b) : INFINITY;
+      js[name] = {{"slope", fit.b}, {"intercept", fit.a}, {"spp_to_threshold", n},
+                  {"ms_to_threshold", n * ms_per_spp}};
+    };
+    fit_json(ly, "fit_rmse");
+    fit_json(lyn, "fit_rmse_nolight");
+    // Efficiency 1 / (MSE x time) at the largest spp.
+    const json& last = points.back();
+    double mse = std::pow(last["rmse"].get<double>(), 2), mse_n = std::pow(last["rmse_nolight"].get<double>(), 2);
+    double secs = last["time_ms"].get<double>() * 1e-3;
+    js["efficiency"] = mse > 0 && secs > 0 ? 1.0 / (mse * secs) : 0.0;
+    js["efficiency_nolight"] = mse_n > 0 && secs > 0 ? 1.0 / (mse_n * secs) : 0.0;
+    summary["strategies"][name] = js;
+  }
+  double secs = bar.finish();
+  summary["seconds"] = secs;
+  if (!out.empty()) {
+    std::ofstream csv(out + "/measurements.csv");
+    csv << converge_csv_header();
+    for (const ConvergeMeasurement& m : result.measurements) csv << converge_csv_row(a.scene, m);
+    std::ofstream(out + "/summary.json") << summary.dump(2) << "\n";
+  }
+
+  // One line per strategy: what a person wants to know first.
+  for (const Technique& tq : techniques) {
+    const std::string name = technique_name(tq);
+    const json& js = summary["strategies"][name];
+    if (!js.contains("fit_rmse")) continue;
+    log("%-28s slope %.3f (no-light %.3f), %.3f ms/spp, RMSE %.3g reached in %.3g spp = %.4g ms\n", name.c_str(),
+        js["fit_rmse"]["slope"].get<double>(), js["fit_rmse_nolight"]["slope"].get<double>(),
+        js["ms_per_spp"].get<double>(), a.threshold, js["fit_rmse"]["spp_to_threshold"].get<double>(),
+        js["fit_rmse"]["ms_to_threshold"].get<double>());
+  }
+  return result;
+}
+
+std::string default_cache_dir() {
+  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::string(x) + "/penumbra";
+  if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.cache/penumbra";
+  return ".penumbra-cache";
+}
+
+std::string converge_csv_header() {
+  return "scene,strategy,spp,seed,time_ms,rmse,rmse_nolight,relmse,relmse_nolight\n";
+}
+
+std::string converge_csv_row(const std::string& scene, const ConvergeMeasurement& m) {
+  std::ostringstream row;
+  row << scene << "," << m.strategy << "," << m.spp << "," << m.seed << "," << m.time_ms << "," << m.rmse << ","
+      << m.rmse_nolight << "," << m.relmse << "," << m.relmse_nolight << "\n";
+  return row.str();
+}
+
+}  // namespace pn
