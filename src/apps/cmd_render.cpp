@@ -22,6 +22,7 @@ struct RenderArgs {
   std::string output;
   std::string variance;
   std::string backend = "auto";
+  std::string gpus;
   IntegratorOptions integrator;
   // kUnset: not given on the command line, keep the scene's value.
   static constexpr long long kUnset = std::numeric_limits<long long>::min();
@@ -36,7 +37,19 @@ std::string default_output(const std::string& scene) {
   return std::filesystem::path(scene).stem().string() + ".png";
 }
 
-// GPU backends: per-launch times from CUDA events, and rays per second.
+// A render split across devices: each device's samples and times.
+void print_device_stats(const RenderStats& st, double pixels) {
+  for (const DeviceTiming& d : st.devices) {
+    const double ms = d.gpu_ms > 0 ? d.gpu_ms : d.wall_ms;
+    std::fprintf(stderr, "stats: %s: samples [%u, %u), %.3f ms wall", d.device.c_str(), d.first_sample,
+                 d.first_sample + d.count, d.wall_ms);
+    if (d.gpu_ms > 0) std::fprintf(stderr, ", %.3f ms GPU", d.gpu_ms);
+    std::fprintf(stderr, ", %.2f Msamples/s\n", ms > 0 ? pixels * d.count / (ms * 1e3) : 0.0);
+  }
+}
+
+// GPU backends: per-launch times from CUDA events, and rays per second; over
+// several GPUs, GPU time is summed over them and the rates are per GPU.
 void print_launch_stats(const RenderStats& st, double pixels) {
   if (st.launches.empty()) return;
   std::vector<double> trace, acc;
@@ -54,11 +67,12 @@ void print_launch_stats(const RenderStats& st, double pixels) {
   };
   std::fprintf(stderr,
                "stats: %zu GPU launches of %u spp: median %.3f ms path tracing + %.3f ms accumulation per launch; "
-               "%.3f ms GPU total, %.2f Msamples/s",
+               "%.3f ms GPU total, %.2f Msamples/s%s",
                st.launches.size(), st.launches.front().spp, median(trace), median(acc), gpu_ms,
-               gpu_ms > 0 ? samples / (gpu_ms * 1e3) : 0.0);
+               gpu_ms > 0 ? samples / (gpu_ms * 1e3) : 0.0, st.devices.size() > 1 ? " per GPU" : "");
   if (st.rays && gpu_ms > 0)
-    std::fprintf(stderr, ", %.3g rays (%.2f Grays/s)", double(st.rays), double(st.rays) / (gpu_ms * 1e6));
+    std::fprintf(stderr, ", %.3g rays (%.2f Grays/s%s)", double(st.rays), double(st.rays) / (gpu_ms * 1e6),
+                 st.devices.size() > 1 ? " per GPU" : "");
   std::fprintf(stderr, "\n");
 }
 
@@ -84,6 +98,7 @@ int run_render(const RenderArgs& a) {
   if (!a.variance.empty()) check_image_path(a.variance);
   BackendOptions opts;
   opts.threads = a.threads;
+  opts.gpus = a.gpus;
   std::string note;
   std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
   std::fprintf(stderr, "%s\n", note.c_str());
@@ -106,6 +121,7 @@ int run_render(const RenderArgs& a) {
   if (a.stats) {
     std::fprintf(stderr, "stats: %zu triangles, %zu spheres, %zu lights, %.3f ms per spp\n", scene.triangle_count(),
                  scene.spheres.size(), scene.lights.size(), seconds * 1e3 / r.spp);
+    print_device_stats(backend->last_render_stats(), double(r.width) * r.height);
     print_launch_stats(backend->last_render_stats(), double(r.width) * r.height);
   }
   return 0;
@@ -131,6 +147,7 @@ Command add_render_command(CLI::App& app) {
   sub->add_option("--set", a->sets, "Override any scene value, e.g. --set light.radius=0.05 --set camera.fov=30")
       ->take_all()
       ->allow_extra_args(false);
+  add_gpus_option(sub, &a->gpus);
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   sub->add_option("--exposure", a->exposure, "PNG exposure in stops (x 2^stops before sRGB)")
       ->capture_default_str()

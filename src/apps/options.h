@@ -19,6 +19,10 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o);
 // Appends "render.strategy=..." etc. for the options that were given.
 void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::string>* overrides);
 
+// --gpus (render, converge): which GPUs split the samples of each image; "all"
+// by default. Its syntax is checked when parsed (render/backend.h: check_gpus).
+void add_gpus_option(CLI::App* sub, std::string* gpus);
+
 // "none, balance, power: what each does" lines for --help.
 std::string mis_help();
 

@@ -39,10 +39,20 @@ struct LaunchTiming {
   float accumulate_ms = 0.f;  // accumulation into the progressive buffers (+ tone-map when displaying)
 };
 
+// One device's share of a render split across several (MultiBackend).
+struct DeviceTiming {
+  std::string device;         // the device's backend: device_name()
+  uint32_t first_sample = 0;  // its samples: [first_sample, first_sample + count) of every pixel
+  uint32_t count = 0;
+  double wall_ms = 0;         // host clock around its render() call
+  double gpu_ms = 0;          // GPU time of its launches (CUDA events); 0 on the CPU
+};
+
 // What the last render() call measured. Backends fill what they can.
 struct RenderStats {
-  std::vector<LaunchTiming> launches;  // one per GPU launch; empty on the CPU
+  std::vector<LaunchTiming> launches;  // one per GPU launch (of every device); empty on the CPU
   uint64_t rays = 0;                   // rays traced (path + shadow rays), counted exactly; 0 = not counted
+  std::vector<DeviceTiming> devices;   // one per device of a split render; empty for one device
 };
 
 // What building a scene cost a GPU backend (`bench` reports it): acceleration
@@ -71,6 +81,15 @@ class Backend {
                       const ProgressFn& progress = nullptr) = 0;
   // Statistics of the last render() call.
   virtual RenderStats last_render_stats() const { return {}; }
+  // The split of `count` samples (from some first sample) into sample ranges
+  // that keeps the image of this backend bit for bit: a multiple of this many
+  // samples per range (the GPU's samples per launch: its per-launch sums are
+  // float), the last range taking the rest. 1: any split.
+  virtual uint32_t split_granularity(const FrameSpec& frame, uint32_t count) const {
+    (void)frame;
+    (void)count;
+    return 1;
+  }
   // Facts about the device for reports (GPU name, driver, versions), in order.
   virtual std::vector<std::pair<std::string, std::string>> device_info() const { return {}; }
   // Costs of building the scene on the device (GPU backends).
@@ -80,11 +99,26 @@ class Backend {
 struct BackendOptions {
   int threads = 0;  // CPU: 0 = all hardware threads
   int spp_per_launch = 0;  // GPU: samples per pixel per launch; 0 = automatic
+  // GPU: which GPUs render (the --gpus option: "all", a count "2" or a list of
+  // CUDA device indices "0,2"); several split every render() in sample ranges
+  // (MultiBackend). "": GPU 0 alone (the viewer, bench).
+  std::string gpus = "";
+  int device = 0;  // GPU: the CUDA device of a single-GPU backend (make_optix_backend)
 };
+
+// --gpus: "all", a count N >= 1 (the first N GPUs) or a comma-separated list of
+// distinct CUDA device indices. Throws std::invalid_argument with one line that
+// names --gpus for anything else (checked before any GPU is looked at).
+void check_gpus(const std::string& spec);
+// The CUDA devices that `spec` selects among `available` GPUs ("" = GPU 0).
+// Throws std::invalid_argument (one line, naming --gpus) when it asks for more
+// GPUs than there are or for an index that does not exist.
+std::vector<int> select_gpus(const std::string& spec, int available);
 
 // Returns "cpu", "optix" or "auto"'s choice. Throws std::runtime_error with one
 // line when the requested backend cannot run here. `note` receives a line that
-// says which backend was chosen and why.
+// says which backend was chosen and why. With options.gpus selecting several
+// GPUs, the GPU backend is a MultiBackend over one OptiX backend per GPU.
 std::unique_ptr<Backend> make_backend(const std::string& which, const Scene& scene,
                                       const BackendOptions& options, std::string* note);
 

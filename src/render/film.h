@@ -29,6 +29,22 @@ class Film {
   uint64_t samples() const { return samples_; }
   void add_samples(uint64_t n) { samples_ += n; }
 
+  // Adds the sums and samples of `other` (a film of the same size): the film of
+  // both sets of samples. Element by element, in double: adding films in a fixed
+  // order gives the same bits wherever it is done.
+  void add(const Film& other) {
+    add_values(other, 0, sum_.size());
+    samples_ += other.samples_;
+  }
+  // The sums of values [begin, end) of `other` (RGB interleaved, 3 a pixel)
+  // alone, samples not counted: add() by parts, e.g. on several threads.
+  void add_values(const Film& other, size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      sum_[i] += other.sum_[i];
+      sum_sq_[i] += other.sum_sq_[i];
+    }
+  }
+
   double* sum() { return sum_.data(); }
   double* sum_sq() { return sum_sq_.data(); }
   const double* sum() const { return sum_.data(); }

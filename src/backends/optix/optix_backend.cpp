@@ -350,6 +350,7 @@ class OptixBackendImpl final : public OptixBackend {
     const Availability& a = availability();
     if (!a.ok) throw std::runtime_error(a.why);
     spp_per_launch_ = std::max(0, options.spp_per_launch);
+    device_ = options.device;
     // Tuning knobs (see NOTES.md): threads per pixel and launch shape.
     if (const char* env = std::getenv("PENUMBRA_OPTIX_PIXELS_PER_THREAD")) pixels_per_thread_ = std::max(1, std::atoi(env));
     if (const char* env = std::getenv("PENUMBRA_OPTIX_LAUNCH")) launch_2d_ = std::string(env) != "1d";
@@ -388,6 +389,7 @@ class OptixBackendImpl final : public OptixBackend {
            sphere_mode();
   }
   std::string sphere_mode() const override { return sphere_mode_ == SphereMode::Builtin ? "builtin" : "custom"; }
+  int cuda_device() const override { return device_; }
   std::vector<std::pair<std::string, std::string>> device_info() const override {
     int drv = 0;
     cudaDriverGetVersion(&drv);
@@ -416,6 +418,7 @@ class OptixBackendImpl final : public OptixBackend {
   const double* device_sums_sq() const override { return acc_sum_sq_.as<double>(); }
 
   void reset(const FrameSpec& frame) override {
+    use_device();
     const int W = frame.camera.width, H = frame.camera.height;
     if (W <= 0 || H <= 0) throw std::logic_error("frame size must be positive");
     const size_t pixels = size_t(W) * size_t(H);
@@ -435,6 +438,7 @@ class OptixBackendImpl final : public OptixBackend {
 
   void accumulate(const FrameSpec& frame, uint32_t first_sample, uint32_t count,
                   const ProgressFn& progress) override {
+    use_device();
     const int W = frame.camera.width, H = frame.camera.height;
     if (W != width_ || H != height_) reset(frame);
     const size_t pixels = size_t(W) * size_t(H);
@@ -449,12 +453,7 @@ class OptixBackendImpl final : public OptixBackend {
     p.sum = launch_sum_.as<float4>();
     p.sum_sq = launch_sum_sq_.as<float4>();
 
-    uint32_t per_launch = uint32_t(spp_per_launch_);
-    if (per_launch == 0) {  // automatic: about a million paths per launch
-      size_t want = (size_t(1) << 20) / pixels;
-      per_launch = uint32_t(std::max<size_t>(1, std::min<size_t>(want, 1024)));
-    }
-    per_launch = std::min(per_launch, std::max(count, 1u));
+    const uint32_t per_launch = split_granularity(frame, count);
     const uint32_t launches = count == 0 ? 0 : (count + per_launch - 1) / per_launch;
     const uint64_t total = uint64_t(pixels) * count;
     // The raygen program of the strategy, with or without MIS.
@@ -518,8 +517,20 @@ class OptixBackendImpl final : public OptixBackend {
     nonfinite_ = counters[1];
   }
 
+  // Samples per pixel of each launch of accumulate(frame, ., count).
+  uint32_t split_granularity(const FrameSpec& frame, uint32_t count) const override {
+    const size_t pixels = std::max<size_t>(1, size_t(frame.camera.width) * size_t(frame.camera.height));
+    uint32_t per_launch = uint32_t(spp_per_launch_);
+    if (per_launch == 0) {  // automatic: about a million paths per launch
+      size_t want = (size_t(1) << 20) / pixels;
+      per_launch = uint32_t(std::max<size_t>(1, std::min<size_t>(want, 1024)));
+    }
+    return std::min(per_launch, std::max(count, 1u));
+  }
+
   void render(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
               const ProgressFn& progress) override {
+    use_device();
     const int W = frame.camera.width, H = frame.camera.height;
     if (film.width() != W || film.height() != H) throw std::logic_error("film size differs from the camera's");
     reset(frame);
@@ -539,6 +550,7 @@ class OptixBackendImpl final : public OptixBackend {
   }
 
   void tonemap(float exposure_stops) override {
+    use_device();
     if (width_ <= 0) throw std::logic_error("tonemap() before any frame");
     ensure_rgba();
     const size_t pixels = size_t(width_) * size_t(height_);
@@ -552,6 +564,7 @@ class OptixBackendImpl final : public OptixBackend {
     std::vector<uint8_t> out;
     if (!rgba_.size()) return out;
     out.resize(rgba_.size());
+    use_device();
     PN_CUDA(cudaStreamSynchronize(stream_));
     PN_CUDA(cudaMemcpy(out.data(), rgba_.as<void>(), out.size(), cudaMemcpyDeviceToHost));
     return out;
@@ -563,10 +576,19 @@ class OptixBackendImpl final : public OptixBackend {
     cudaEvent_t start = nullptr, traced = nullptr, end = nullptr;
   };
 
+  // CUDA's current device is per host thread: every method that calls CUDA on
+  // this backend's memory sets it first.
+  void use_device() const { PN_CUDA(cudaSetDevice(device_)); }
+
   void init_device() {
-    PN_CUDA(cudaSetDevice(0));
+    int count = 0;
+    PN_CUDA(cudaGetDeviceCount(&count));
+    if (device_ < 0 || device_ >= count)
+      throw std::runtime_error("no GPU " + std::to_string(device_) + " (this machine has " + std::to_string(count) +
+                               ")");
+    use_device();
     PN_CUDA(cudaFree(nullptr));  // creates the primary context
-    PN_CUDA(cudaGetDeviceProperties(&props_, 0));
+    PN_CUDA(cudaGetDeviceProperties(&props_, device_));
     gpu_name_ = props_.name;
     driver_ = driver_version();
     PN_CUDA(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
@@ -1027,6 +1049,7 @@ class OptixBackendImpl final : public OptixBackend {
   // Releases everything; used by the destructor and a failed constructor, so it
   // ignores errors (a sticky CUDA error must not hide the first message).
   void destroy() {
+    cudaSetDevice(device_);  // unchecked, as everything here
     if (stream_) cudaStreamSynchronize(stream_);
     if (pipeline_) optixPipelineDestroy(pipeline_);
     for (OptixProgramGroup g : raygen_)
@@ -1064,6 +1087,7 @@ class OptixBackendImpl final : public OptixBackend {
   SphereMode sphere_mode_ = SphereMode::Custom;
   uint32_t feature_level_ = optix::kNumFeatureLevels - 1;  // index into kFeatureLevels
   int spp_per_launch_ = 0;
+  int device_ = 0;  // the CUDA device
   int pixels_per_thread_ = 1;
   bool launch_2d_ = kDefaultLaunch2d;
   bool display_ = false;
@@ -1113,6 +1137,16 @@ bool optix_available(std::string* why) {
   const Availability& a = availability();
   if (why) *why = a.ok ? std::string() : a.why;
   return a.ok;
+}
+
+int optix_device_count() {
+  if (!availability().ok) return 0;
+  int n = 0;
+  if (cudaGetDeviceCount(&n) != cudaSuccess) {
+    cudaGetLastError();
+    return 0;
+  }
+  return n;
 }
 
 }  // namespace pn

@@ -50,9 +50,14 @@ class OptixBackend : public Backend {
   // "builtin" or "custom": how spheres are intersected (OptiX built-in sphere
   // primitives or a custom intersection program running core/geometry.h).
   virtual std::string sphere_mode() const = 0;
+  // The CUDA device this backend renders on (device_sums() are its memory).
+  virtual int cuda_device() const = 0;
 };
 
-// Builds the backend for `scene` on GPU 0. Throws std::runtime_error with one
+// Builds the backend for `scene` on GPU options.device (0 by default): every
+// call sets that CUDA device on the calling thread first, so that backends of
+// several GPUs may render concurrently from threads of their own (MultiBackend;
+// make_backend builds one per GPU that --gpus selects). Throws std::runtime_error with one
 // line (no GPU or driver, OptiX ABI not supported by the driver, out of GPU
 // memory with the scene's size, any failed CUDA or OptiX call).
 // PENUMBRA_OPTIX_SPHERES=builtin|custom overrides how spheres are intersected.
@@ -62,5 +67,9 @@ std::unique_ptr<Backend> make_optix_backend(const Scene& scene, const BackendOpt
 // True when a GPU, its driver and OptiX can be used; otherwise false with the
 // reason in one line in *why.
 bool optix_available(std::string* why);
+
+// The number of CUDA devices this process sees (CUDA_VISIBLE_DEVICES applies);
+// 0 when optix_available() is false.
+int optix_device_count();
 
 }  // namespace pn

@@ -1,0 +1,149 @@
+// MultiBackend (render/multi_backend.h): one image split across devices in
+// sample ranges, on CPU "devices" (several CPU backends of one thread each):
+// the code path of several GPUs, with the image of one device to the bit.
+// And --gpus: which GPUs a specification selects (render/backend.h).
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <stdexcept>
+
+#include "backends/cpu/cpu_backend.h"
+#include "render/multi_backend.h"
+#include "scene/scene.h"
+
+namespace pn {
+namespace {
+
+// The cornell-sphere scene with its light in view (pixels of constant radiance,
+// where the order of double additions shows first in the variance), 31x23 so
+// that no tile is whole.
+Scene scene() {
+  return load_scene("cornell-sphere", {"render.width=31", "render.height=23", "render.seed=11", "render.max_depth=4"});
+}
+
+std::unique_ptr<MultiBackend> cpu_devices(const Scene& s, int n) {
+  std::vector<std::unique_ptr<Backend>> devices;
+  std::vector<std::string> labels;
+  for (int i = 0; i < n; ++i) {
+    devices.push_back(make_cpu_backend(s, 1));
+    labels.push_back("CPU " + std::to_string(i));
+  }
+  return std::make_unique<MultiBackend>(std::move(devices), std::move(labels));
+}
+
+bool same_bytes(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+TEST(MultiBackend, SplitCoversTheRangeInWholeUnits) {
+  using R = std::vector<std::pair<uint32_t, uint32_t>>;
+  EXPECT_EQ(MultiBackend::split(10, 7, 3, 1), (R{{10, 3}, {13, 2}, {15, 2}}));
+  EXPECT_EQ(MultiBackend::split(10, 7, 3, 2), (R{{10, 4}, {14, 2}, {16, 1}}));  // the last unit is short
+  EXPECT_EQ(MultiBackend::split(0, 2, 4, 1), (R{{0, 1}, {1, 1}, {2, 0}, {2, 0}}));
+  EXPECT_EQ(MultiBackend::split(0, 256, 2, 256), (R{{0, 256}, {256, 0}}));  // one launch: not split
+  EXPECT_EQ(MultiBackend::split(5, 0, 2, 1), (R{{5, 0}, {5, 0}}));
+}
+
+TEST(MultiBackend, SameImageWhateverTheSplit) {
+  const Scene s = scene();
+  const FrameSpec f = frame_spec(s);
+  const uint32_t first = 3, count = 67;
+  Film one(31, 23);
+  make_cpu_backend(s, 2)->render(f, one, first, count);
+  const std::vector<float> mean = one.mean(), var = one.variance_of_mean();
+  for (int n : {1, 2, 3, 4}) {
+    auto multi = cpu_devices(s, n);
+    Film film(31, 23);
+    multi->render(f, film, first, count);
+    EXPECT_EQ(film.samples(), count);
+    EXPECT_TRUE(same_bytes(film.mean(), mean)) << n << " devices: the mean differs";
+    EXPECT_TRUE(same_bytes(film.variance_of_mean(), var)) << n << " devices: the variance differs";
+    const RenderStats st = multi->last_render_stats();
+    ASSERT_EQ(st.devices.size(), size_t(n));
+    uint32_t next = first;
+    for (const DeviceTiming& d : st.devices) {  // disjoint ranges, in order, covering all
+      EXPECT_EQ(d.first_sample, next);
+      next += d.count;
+      EXPECT_GT(d.wall_ms, 0);
+      EXPECT_NE(d.device.find("CPU "), std::string::npos);
+    }
+    EXPECT_EQ(next, first + count);
+  }
+}
+
+TEST(MultiBackend, AddsToTheFilmLikeOneDevice) {
+  // Progressive: 5 samples, then 9 more on three devices, as on one.
+  const Scene s = scene();
+  const FrameSpec f = frame_spec(s);
+  Film one(31, 23), three(31, 23);
+  auto cpu = make_cpu_backend(s, 1);
+  auto multi = cpu_devices(s, 3);
+  cpu->render(f, one, 0, 5);
+  cpu->render(f, one, 5, 9);
+  multi->render(f, three, 0, 5);
+  multi->render(f, three, 5, 9);
+  EXPECT_EQ(three.samples(), 14u);
+  EXPECT_TRUE(same_bytes(three.mean(), one.mean()));
+}
+
+TEST(MultiBackend, ProgressCountsEveryDeviceAndCanStopThemAll) {
+  const Scene s = scene();
+  const FrameSpec f = frame_spec(s);
+  auto multi = cpu_devices(s, 3);
+  Film film(31, 23);
+  uint64_t last = 0, total_seen = 0;
+  multi->render(f, film, 0, 6, [&](uint64_t done, uint64_t total) {
+    EXPECT_GE(done, last);  // serialised and monotonic
+    last = done;
+    total_seen = total;
+  });
+  EXPECT_EQ(total_seen, uint64_t(31) * 23 * 6);
+  EXPECT_EQ(last, total_seen);
+
+  // An exception from the hook stops every device; the film keeps what it had.
+  Film before = film;
+  int calls = 0;
+  EXPECT_THROW(multi->render(f, film, 6, 40,
+                             [&](uint64_t, uint64_t) {
+                               if (++calls == 2) throw std::runtime_error("stop");
+                             }),
+               std::runtime_error);
+  EXPECT_EQ(film.samples(), before.samples());
+  EXPECT_TRUE(same_bytes(film.mean(), before.mean()));
+  // ... and it renders again afterwards.
+  multi->render(f, film, 6, 2);
+  EXPECT_EQ(film.samples(), 8u);
+}
+
+TEST(MultiBackend, NamesItsDevices) {
+  const Scene s = scene();
+  auto multi = cpu_devices(s, 2);
+  EXPECT_EQ(multi->name(), "cpu");
+  EXPECT_EQ(multi->device_name().rfind("2 devices (CPU 0, CPU 1): 1 CPU thread", 0), 0u) << multi->device_name();
+}
+
+TEST(Gpus, SelectsGpusBySpecification) {
+  EXPECT_EQ(select_gpus("", 4), std::vector<int>{0});  // the viewer, bench: GPU 0
+  EXPECT_EQ(select_gpus("all", 3), (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(select_gpus("2", 3), (std::vector<int>{0, 1}));
+  EXPECT_EQ(select_gpus("2,0", 3), (std::vector<int>{2, 0}));
+  EXPECT_EQ(select_gpus("1", 1), std::vector<int>{0});  // a count, not an index
+}
+
+TEST(Gpus, RejectsWhatIsNotThere) {
+  for (const char* bad : {"0", "x", "1,x", ",", "1,,2", "-1", "1,1", "all,1", " 1", "99999"})
+    EXPECT_THROW(check_gpus(bad), std::invalid_argument) << bad;
+  EXPECT_NO_THROW(check_gpus("all"));
+  EXPECT_NO_THROW(check_gpus("0,3"));
+  EXPECT_THROW(select_gpus("3", 2), std::invalid_argument);    // more than there are
+  EXPECT_THROW(select_gpus("0,2", 2), std::invalid_argument);  // no GPU 2
+  EXPECT_THROW(select_gpus("all", 0), std::invalid_argument);  // none at all
+  try {
+    select_gpus("0,2", 2);
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "--gpus 0,2: no GPU 2 (this machine has 2 GPUs, numbered from 0)");
+  }
+}
+
+}  // namespace
+}  // namespace pn
