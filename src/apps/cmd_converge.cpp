@@ -8,6 +8,7 @@
 #include <string>
 
 #include "apps/commands.h"
+#include "apps/options.h"
 #include "apps/progress.h"
 #include "render/converge.h"
 
@@ -30,6 +31,10 @@ Command add_converge_command(CLI::App& app) {
   sub->add_option("--max-spp", a->max_spp, "Largest spp (renders at 1, 2, 4, ... up to it)")->capture_default_str();
   sub->add_option("--seeds", a->seeds, "Independent renders per point")->capture_default_str();
   sub->add_option("--reference-spp", a->reference_spp, "Samples per pixel of the ground truth")->capture_default_str();
+  sub->add_option("--reference-chunk", a->reference_chunk,
+                  "Samples per pixel of each chunk of the ground truth: chunks are rendered from zero and added in "
+                  "order (scripts/study.py --executor ray renders them as tasks and merges them to the same bits)")
+      ->capture_default_str();
   sub->add_option("--reference-strategy", a->reference_strategy, "Strategy of the ground truth")->capture_default_str();
   sub->add_option("--reference-mis", a->reference_mis, "MIS mode of the ground truth")->capture_default_str();
   sub->add_option("--cache", a->cache, "Folder for cached ground truths (default: $XDG_CACHE_HOME/penumbra or ~/.cache/penumbra)");
@@ -40,6 +45,7 @@ Command add_converge_command(CLI::App& app) {
   sub->add_option("--crop", a->crop, "Crop rectangle x,y,w,h (default: around the light)")->delimiter(',')->expected(4);
   sub->add_option("--fit-min-spp", a->fit_min_spp, "Smallest spp used in the log-log fits")->capture_default_str();
   sub->add_option("--backend", a->backend, "cpu, optix or auto")->capture_default_str()->check(CLI::IsMember({"cpu", "optix", "auto"}));
+  add_gpus_option(sub, &a->gpus);
   sub->add_option("--threads", a->threads, "CPU threads (default: all)");
   sub->add_option("--set", a->sets, "Override a scene value (repeatable), e.g. --set light.radius=0.05")->allow_extra_args(false);
   return {sub, [a]() {

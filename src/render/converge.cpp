@@ -3,6 +3,7 @@
 #include "render/converge.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -10,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -39,13 +41,19 @@ uint64_t fnv1a(const std::string& s) {
 }
 
 // Renders `spp` samples (from sample `first`) and returns the GPU time of the
-// launches when the backend measures it, else the wall time, in milliseconds.
+// launches when the backend measures it, else the wall time, in milliseconds;
+// split across devices, the time of the slowest device.
 double timed_render(Backend& b, const FrameSpec& f, Film& film, uint32_t first, uint32_t spp,
                     const ProgressFn& progress = nullptr) {
   auto t0 = std::chrono::steady_clock::now();
   b.render(f, film, first, spp, progress);
   double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   RenderStats st = b.last_render_stats();
+  if (!st.devices.empty()) {
+    double slowest = 0;
+    for (const DeviceTiming& d : st.devices) slowest = std::max(slowest, d.gpu_ms > 0 ? d.gpu_ms : d.wall_ms);
+    return slowest;
+  }
   if (st.launches.empty()) return wall;
   double gpu = 0;
   for (const auto& l : st.launches) gpu += l.trace_ms + l.accumulate_ms;
@@ -80,40 +88,165 @@ void write_crop(const std::string& path, const std::vector<float>& img, int W, c
   write_npy(path, c[3], c[2], 3, out.data());
 }
 
-}  // namespace
+// Seed of every ground truth (never used by the measured renders: 1..seeds).
+constexpr uint32_t kRefSeed = 0x5EED;
 
-ConvergeResult run_converge(const ConvergeOptions& a) {
+// An experiment's scene, techniques and ground truth, checked: what every entry
+// point below starts from.
+struct Setup {
+  json doc;  // the scene document after overrides
+  std::string source;
+  Scene scene;
+  int W = 0, H = 0;
+  std::vector<Technique> techniques;
+  Technique ref_technique;
+  std::vector<int> crop;
+  ReferencePlan ref;
+};
+
+Setup prepare(const ConvergeOptions& a) {
+  Setup s;
   std::vector<std::string> overrides = a.sets;
   if (a.width) overrides.push_back("render.width=" + std::to_string(a.width));
   if (a.height) overrides.push_back("render.height=" + std::to_string(a.height));
-  std::string source;
-  json doc = load_scene_json(a.scene, overrides, &source);
-  Scene scene = load_scene(a.scene, overrides);
-  const int W = scene.render.width, H = scene.render.height;
+  s.doc = load_scene_json(a.scene, overrides, &s.source);
+  s.scene = load_scene(a.scene, overrides);
+  const int W = s.W = s.scene.render.width, H = s.H = s.scene.render.height;
   std::vector<Strategy> strategy_list;
-  for (const auto& s : a.strategies) strategy_list.push_back(parse_strategy(s, "--strategies"));
+  for (const auto& st : a.strategies) strategy_list.push_back(parse_strategy(st, "--strategies"));
   std::vector<Mis> modes;
   for (const auto& m : a.mis) modes.push_back(parse_mis(m, "--mis"));
-  const std::vector<Technique> techniques = cross_techniques(strategy_list, modes);
-  const Technique ref_technique{parse_strategy(a.reference_strategy, "--reference-strategy"),
-                                parse_mis(a.reference_mis, "--reference-mis")};
-  if (a.max_spp < 1 || a.seeds < 1 || a.reference_spp < 1 || a.crop_spp < 1)
-    throw std::invalid_argument("converge: --max-spp, --seeds, --reference-spp and --crop-spp must be >= 1");
-  std::vector<int> crop = a.crop.empty() ? auto_crop(scene) : a.crop;
+  s.techniques = cross_techniques(strategy_list, modes);
+  s.ref_technique = {parse_strategy(a.reference_strategy, "--reference-strategy"),
+                     parse_mis(a.reference_mis, "--reference-mis")};
+  if (a.max_spp < 1 || a.seeds < 1 || a.reference_spp < 1 || a.crop_spp < 1 || a.reference_chunk < 1)
+    throw std::invalid_argument(
+        "converge: --max-spp, --seeds, --reference-spp, --reference-chunk and --crop-spp must be >= 1");
+  s.crop = a.crop.empty() ? auto_crop(s.scene) : a.crop;
+  const std::vector<int>& crop = s.crop;
   if (crop.size() != 4 || crop[2] < 1 || crop[3] < 1 || crop[0] < 0 || crop[1] < 0 || crop[0] + crop[2] > W ||
       crop[1] + crop[3] > H)
     throw std::invalid_argument("converge: --crop must be x,y,w,h inside the " + std::to_string(W) + "x" +
                                 std::to_string(H) + " image");
+  check_gpus(a.gpus);
+
+  // The key covers everything that changes the expected image and its noise:
+  // the scene document after overrides (geometry, camera, resolution, depth),
+  // the reference spp and strategy. Seed kRefSeed is kept for references only.
+  // (Not the chunk size: it changes the order of double additions only.)
+  json key_doc = s.doc;
+  key_doc["render"].erase("spp");
+  key_doc["render"].erase("strategy");
+  key_doc["render"].erase("mis");
+  key_doc["render"].erase("seed");
+  std::ostringstream key;
+  key << std::hex
+      << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(s.ref_technique));
+  const std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
+  ReferencePlan& r = s.ref;
+  r.key = key.str();
+  r.path = cache + "/ref-" + r.key + ".exr";
+  r.var_path = cache + "/ref-" + r.key + "_var.exr";
+  r.width = W;
+  r.height = H;
+  r.spp = a.reference_spp;
+  r.chunk_spp = std::min(a.reference_chunk, a.reference_spp);
+  r.chunks = (r.spp + r.chunk_spp - 1) / r.chunk_spp;
+  r.cached = fs::exists(r.path) && fs::exists(r.var_path);
+  return s;
+}
+
+std::unique_ptr<Backend> backend_for(const ConvergeOptions& a, const Scene& scene, std::string* note) {
+  BackendOptions opts;
+  opts.threads = a.threads;
+  opts.gpus = a.gpus;
+  return make_backend(a.backend, scene, opts, note);
+}
+
+// Chunk k of the ground truth into `film` (from zero).
+void render_chunk(Backend& backend, const Setup& s, int k, Film& film, const ProgressFn& progress) {
+  if (k < 0 || k >= s.ref.chunks)
+    throw std::invalid_argument("converge: reference chunk " + std::to_string(k) + " does not exist (the reference has " +
+                                std::to_string(s.ref.chunks) + ")");
+  FrameSpec f = frame_spec(s.scene);
+  f.integrator.strategy = s.ref_technique.strategy;
+  f.integrator.mis = s.ref_technique.mis;
+  f.seed = kRefSeed;
+  const uint32_t first = uint32_t(k) * uint32_t(s.ref.chunk_spp);
+  film.reset(s.W, s.H);
+  backend.render(f, film, first, std::min<uint32_t>(uint32_t(s.ref.chunk_spp), uint32_t(s.ref.spp) - first), progress);
+}
+
+// `path` written at once: a reader (another process with the same cache) sees
+// the whole file or none.
+void write_image_atomically(const std::string& path, int W, int H, const std::vector<float>& v) {
+  static std::atomic<unsigned> counter{0};
+  const std::string tmp = path + ".tmp-" + std::to_string(std::random_device{}()) + "-" +
+                          std::to_string(counter++) + ".exr";
+  write_image(tmp, W, H, v);
+  fs::rename(tmp, path);
+}
+
+// The reference's files from the sums of all its samples; the mean last: a
+// reference exists when its mean does.
+void write_reference(const ReferencePlan& r, const Film& film, std::vector<float>* mean, std::vector<float>* var) {
+  if (film.width() != r.width || film.height() != r.height || film.samples() != uint64_t(r.spp))
+    throw std::invalid_argument("converge: the reference's sums must be " + std::to_string(r.width) + "x" +
+                                std::to_string(r.height) + " with " + std::to_string(r.spp) + " samples, not " +
+                                std::to_string(film.width()) + "x" + std::to_string(film.height()) + " with " +
+                                std::to_string(film.samples()));
+  fs::create_directories(fs::path(r.path).parent_path());
+  *mean = film.mean();
+  *var = film.variance_of_mean();
+  write_image_atomically(r.var_path, r.width, r.height, *var);
+  write_image_atomically(r.path, r.width, r.height, *mean);
+}
+
+}  // namespace
+
+ConvergePlan plan_converge(const ConvergeOptions& options) {
+  Setup s = prepare(options);
+  ConvergePlan p;
+  p.reference = s.ref;
+  for (const Technique& t : s.techniques) {
+    p.techniques.push_back(technique_name(t));
+    p.technique_parts.emplace_back(strategy_name(t.strategy), mis_name(t.mis));
+  }
+  return p;
+}
+
+Film render_reference_chunk(const ConvergeOptions& options, int index) {
+  Setup s = prepare(options);
+  std::string note;
+  std::unique_ptr<Backend> backend = backend_for(options, s.scene, &note);
+  if (options.verbose) std::fprintf(stderr, "%s\n", note.c_str());
+  Film film;
+  render_chunk(*backend, s, index, film, options.progress);
+  return film;
+}
+
+void store_reference(const ConvergeOptions& options, const Film& film) {
+  Setup s = prepare(options);
+  std::vector<float> mean, var;
+  write_reference(s.ref, film, &mean, &var);
+}
+
+ConvergeResult run_converge(const ConvergeOptions& a) {
+  Setup setup = prepare(a);
+  const Scene& scene = setup.scene;
+  const int W = setup.W, H = setup.H;
+  const std::vector<Technique>& techniques = setup.techniques;
+  const Technique ref_technique = setup.ref_technique;
+  const std::vector<int>& crop = setup.crop;
+  const ReferencePlan& plan = setup.ref;
 
   const std::string& out = a.out;  // "": write no files but the cached reference
   if (!out.empty()) fs::create_directories(out);
   std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
   fs::create_directories(cache);
 
-  BackendOptions opts;
-  opts.threads = a.threads;
   std::string note;
-  std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
+  std::unique_ptr<Backend> backend = backend_for(a, scene, &note);
   auto log = [&](const char* fmt, auto... args) {
     if (a.verbose) std::fprintf(stderr, fmt, args...);
   };
@@ -127,22 +260,13 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   };
 
   // --- Ground truth (cached) --------------------------------------------------
-  // The key covers everything that changes the expected image and its noise:
-  // the scene document after overrides (geometry, camera, resolution, depth),
-  // the reference spp and strategy. Seed 0x5EED is kept for references only.
-  const uint32_t kRefSeed = 0x5EED;
-  json key_doc = doc;
-  key_doc["render"].erase("spp");
-  key_doc["render"].erase("strategy");
-  key_doc["render"].erase("mis");
-  key_doc["render"].erase("seed");
-  std::ostringstream key;
-  key << std::hex << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(ref_technique));
-  std::string ref_path = cache + "/ref-" + key.str() + ".exr";
-  std::string ref_var_path = cache + "/ref-" + key.str() + "_var.exr";
+  // In chunks of plan.chunk_spp samples, each rendered from zero and added in
+  // chunk order: the sums render_reference_chunk() and store_reference() give.
+  const std::string& ref_path = plan.path;
+  const std::string& ref_var_path = plan.var_path;
   std::vector<float> ref, ref_var;
   double ref_seconds = 0;
-  bool cached = fs::exists(ref_path) && fs::exists(ref_var_path);
+  bool cached = plan.cached;
   if (cached) {
     int w, h, wv, hv;
     ref = read_exr(ref_path, &w, &h);
@@ -151,26 +275,17 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
       throw std::runtime_error(ref_path + ": cached reference has the wrong size");
     log("reference: %s (cached)\n", ref_path.c_str());
   } else {
-    FrameSpec f = frame_spec(scene);
-    f.integrator.strategy = ref_technique.strategy;
-    f.integrator.mis = ref_technique.mis;
-    f.seed = kRefSeed;
-    Film film(W, H);
+    Film film(W, H), chunk;
     ProgressBar bar("reference " + std::to_string(a.reference_spp) + " spp");
-    // In chunks, so that the progress bar moves on the GPU too.
-    const uint32_t chunk = 256;
-    uint64_t total = uint64_t(W) * H * a.reference_spp;
-    for (uint32_t s = 0; s < uint32_t(a.reference_spp); s += chunk) {
-      uint32_t n = std::min<uint32_t>(chunk, uint32_t(a.reference_spp) - s);
-      backend->render(f, film, s, n, progress_to(bar, uint64_t(W) * H * s, total));
+    const uint64_t total = uint64_t(W) * H * a.reference_spp;
+    for (int k = 0; k < plan.chunks; ++k) {
+      render_chunk(*backend, setup, k, chunk, progress_to(bar, uint64_t(W) * H * k * plan.chunk_spp, total));
+      film.add(chunk);
     }
     ref_seconds = bar.finish();
-    ref = film.mean();
-    ref_var = film.variance_of_mean();
-    write_image(ref_var_path, W, H, ref_var);
-    write_image(ref_path + ".tmp.exr", W, H, ref);
-    fs::rename(ref_path + ".tmp.exr", ref_path);  // last: a reference exists only when complete
-    log("reference: %s (%d spp, %s)\n", ref_path.c_str(), a.reference_spp, format_duration(ref_seconds).c_str());
+    write_reference(plan, film, &ref, &ref_var);
+    log("reference: %s (%d spp in %d chunk%s, %s)\n", ref_path.c_str(), a.reference_spp, plan.chunks,
+        plan.chunks == 1 ? "" : "s", format_duration(ref_seconds).c_str());
   }
   if (!out.empty()) write_image(out + "/reference.png", W, H, ref);
 
@@ -212,13 +327,14 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   ConvergeResult result;
   json& summary = result.summary;
   summary["scene"] = a.scene;
-  summary["source"] = source;
+  summary["source"] = setup.source;
   summary["width"] = W;
   summary["height"] = H;
   summary["max_depth"] = scene.render.max_depth;
   summary["overrides"] = a.sets;
   summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)}, {"file", ref_path},
                           {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed},
+                          {"chunk_spp", plan.chunk_spp},
                           {"rmse_floor", floor_all}, {"rmse_floor_nolight", floor_nolight}};
   summary["git_commit"] = PENUMBRA_GIT_COMMIT;  // of the binary that made the runs
   summary["backend"] = backend->name();

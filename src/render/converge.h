@@ -2,13 +2,16 @@
 // converge` and the Python module's penumbra.converge().
 //
 // For one scene: a ground-truth image (cached on disk under a key derived from
-// the scene and settings), then renders at 1, 2, 4, ... spp for each technique
+// the scene and settings; rendered in chunks of samples whose sums are added in
+// chunk order, so that the chunks may also be rendered apart, e.g. as tasks on
+// a cluster by scripts/study.py, and merged to the same bits), then renders at 1, 2, 4, ... spp for each technique
 // (strategy x MIS mode) with several independent seeds, each timed; errors against the ground truth
 // (metrics.h), log-log fits of error against spp, efficiency and the time each
 // strategy needs to reach an error threshold; crops for the visual comparison.
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -23,6 +26,7 @@ struct ConvergeOptions {
   std::string out;                // folder for measurements.csv, summary.json, crops, images; "" = none
   std::string cache;              // ground-truth cache folder; "" = default_cache_dir()
   std::string backend = "auto";
+  std::string gpus = "all";  // --gpus: the GPUs that split every render (render/backend.h)
   std::string reference_strategy = "solid-angle", reference_mis = "power";
   std::vector<std::string> strategies = {"area", "solid-angle"};
   // MIS modes, each with every strategy that samples lights: the techniques
@@ -30,6 +34,7 @@ struct ConvergeOptions {
   std::vector<std::string> mis = {"none"};
   int width = 0, height = 0;  // 0: the scene's
   int max_spp = 1024, seeds = 4, reference_spp = 65536, crop_spp = 32, fit_min_spp = 4;
+  int reference_chunk = 4096;  // samples per pixel of each chunk of the ground truth
   int threads = 0;
   double threshold = 0.05;
   std::vector<int> crop;  // x, y, w, h; empty: around the light
@@ -50,6 +55,36 @@ struct ConvergeResult {
   std::vector<ConvergeMeasurement> measurements;
   nlohmann::json summary;  // what summary.json holds: settings, reference, per-strategy points and fits
 };
+
+// What an experiment will do, before it renders anything: its ground truth
+// (where it is cached, its chunks) and its techniques.
+struct ReferencePlan {
+  std::string key;             // the cache key: a hash of the scene document and the reference's settings
+  std::string path, var_path;  // the cached mean and variance of the mean (EXR)
+  int width = 0, height = 0;
+  int spp = 0, chunk_spp = 0;  // chunk k holds samples [k chunk_spp, min((k + 1) chunk_spp, spp))
+  int chunks = 0;
+  bool cached = false;  // both files exist
+};
+struct ConvergePlan {
+  ReferencePlan reference;
+  std::vector<std::string> techniques;  // in the order of measurements.csv: "area", "area+power", ...
+  std::vector<std::pair<std::string, std::string>> technique_parts;  // (strategy, MIS mode) of each
+};
+
+// Loads the scene and checks the options as run_converge() does (same errors).
+ConvergePlan plan_converge(const ConvergeOptions& options);
+
+// The sums of chunk `index` of the ground truth (samples from zero, one render
+// on the backend the options choose): what run_converge() adds, in chunk
+// order, when the reference is not cached.
+Film render_reference_chunk(const ConvergeOptions& options, int index);
+
+// Writes the ground truth of `film` (the sums of all its samples: the chunks
+// added in chunk order) to the cache as run_converge() does; later runs with
+// the same options find it there. Throws std::invalid_argument when the film
+// has not the plan's size or samples.
+void store_reference(const ConvergeOptions& options, const Film& film);
 
 // Runs the experiment; with a non-empty `out`, also writes its files there.
 // Throws SceneError for a bad scene, std::invalid_argument for bad options and
