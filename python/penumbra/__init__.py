@@ -11,6 +11,7 @@ The same scenes, settings and seeds give the same images as ``penumbra render``
 """
 from __future__ import annotations
 
+import inspect
 import json
 import os
 from dataclasses import dataclass, field
@@ -28,7 +29,8 @@ from ._penumbra import Image  # noqa: E402
 
 __all__ = [
     "BackendError", "ConvergeResult", "Image", "PenumbraError", "Renderer", "Scene", "SceneError", "build_info",
-    "compare", "converge", "load_scene", "read_exr", "render", "scenes",
+    "compare", "converge", "converge_plan", "load_scene", "read_exr", "render", "render_reference_chunk", "scenes",
+    "store_reference",
 ]
 
 ProgressFn = Callable[[int, int], None]
@@ -80,6 +82,26 @@ def _check_backend(backend: str) -> str:
     if backend not in _BACKENDS:
         raise ValueError(f"backend must be one of {', '.join(_BACKENDS)}, not {backend!r}")
     return backend
+
+
+GpusLike = Union[str, int, Sequence[int]]
+"""Which GPUs render: "all", a number of GPUs (the first N) or a list of CUDA
+device indices such as [0, 2] (or "0,2"), as ``penumbra render --gpus``."""
+
+
+def _gpus(gpus: GpusLike) -> str:
+    """gpus as --gpus's text (its syntax is checked by the library)."""
+    if isinstance(gpus, bool):
+        raise TypeError("gpus must be 'all', a number of GPUs or a list of GPU indices, not a bool")
+    if isinstance(gpus, int):
+        return str(gpus)
+    if isinstance(gpus, str):
+        return gpus
+    if isinstance(gpus, Sequence) and all(isinstance(g, int) and not isinstance(g, bool) for g in gpus):
+        if not gpus:
+            raise ValueError("gpus: an empty list of GPUs")
+        return ",".join(str(g) for g in gpus)
+    raise TypeError(f"gpus must be 'all', a number of GPUs or a list of GPU indices, not {gpus!r}")
 
 
 def _threads(threads: Optional[int]) -> int:
@@ -167,7 +189,7 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
            width: Optional[int] = None, height: Optional[int] = None, seed: Optional[int] = 0,
            max_depth: Optional[int] = None, backend: str = "auto", mis: Optional[str] = None,
            denoise: bool = False, overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
-           progress: Optional[ProgressFn] = None) -> Image:
+           gpus: GpusLike = "all", progress: Optional[ProgressFn] = None) -> Image:
     """Renders a scene and returns the image.
 
     Every setting left at None keeps the scene's own value, as on the command
@@ -189,6 +211,9 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
         denoise: not available yet: raises BackendError.
         overrides: other scene values to change (see load_scene).
         threads: CPU threads (default: all cores).
+        gpus: the GPUs of the "optix" backend: "all" (default), a number N (the first N)
+            or a list of device indices; several split the samples of every pixel
+            (the same image; ``image.stats["devices"]`` has each one's share and time).
         progress: called as progress(done, total) while rendering.
 
     Raises:
@@ -200,7 +225,7 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
         raise BackendError("denoise=True: denoising (the OptiX AI denoiser) is not available in this penumbra yet")
     s = load_scene(scene, overrides)
     r = Renderer(s, backend=backend, strategy=strategy, spp=spp, width=width, height=height, seed=seed,
-                 max_depth=max_depth, mis=mis, threads=threads)
+                 max_depth=max_depth, mis=mis, threads=threads, gpus=gpus)
     return r.render(r.settings["spp"], progress=progress)
 
 
@@ -216,16 +241,20 @@ class Renderer:
     Changes of strategy, depth, seed, size, camera and mis reuse the backend (its
     acceleration structures and device data); other scene changes rebuild it
     (``builds`` counts how often). Any change starts the accumulation over.
+    ``gpus`` as in render(): with one GPU the image stays on it (DLPack); several
+    split every render() call and the image is accumulated on the host.
     """
 
     def __init__(self, scene: SceneLike, *, backend: str = "auto", strategy: Optional[str] = None,
                  spp: Optional[int] = None, width: Optional[int] = None, height: Optional[int] = None,
                  seed: Optional[int] = 0, max_depth: Optional[int] = None, mis: Optional[str] = None,
-                 overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None):
+                 overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
+                 gpus: GpusLike = "all"):
         s = scene if isinstance(scene, Scene) else load_scene(scene)
         frame = _frame_overrides(strategy, spp, width, height, seed, max_depth, mis)
         frame.update(overrides or {})
-        self._r = _penumbra.Renderer(s._state, _check_backend(backend), _threads(threads), _override_list(frame))
+        self._r = _penumbra.Renderer(s._state, _check_backend(backend), _threads(threads), _gpus(gpus),
+                                     _override_list(frame))
 
     def render(self, spp: int = 1, *, progress: Optional[ProgressFn] = None) -> Image:
         """Adds ``spp`` samples per pixel and returns the image of all samples so far.
@@ -314,35 +343,99 @@ class ConvergeResult:
 
 def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str] = ("area", "solid-angle"),
              mis: Sequence[str] = ("none",), max_spp: int = 1024, seeds: int = 4, reference_spp: int = 65536,
-             reference_strategy: str = "solid-angle", reference_mis: str = "power",
+             reference_strategy: str = "solid-angle", reference_mis: str = "power", reference_chunk: int = 4096,
              width: Optional[int] = None, height: Optional[int] = None,
-             overrides: Optional[Mapping[str, Any]] = None, backend: str = "auto", threads: Optional[int] = None,
-             cache: Optional[str] = None, out: Optional[str] = None, threshold: float = 0.05, crop_spp: int = 32,
-             crop: Optional[Sequence[int]] = None, fit_min_spp: int = 4, verbose: bool = False,
-             progress: Optional[ProgressFn] = None) -> ConvergeResult:
+             overrides: Optional[Mapping[str, Any]] = None, backend: str = "auto", gpus: GpusLike = "all",
+             threads: Optional[int] = None, cache: Optional[str] = None, out: Optional[str] = None,
+             threshold: float = 0.05, crop_spp: int = 32, crop: Optional[Sequence[int]] = None, fit_min_spp: int = 4,
+             verbose: bool = False, progress: Optional[ProgressFn] = None) -> ConvergeResult:
     """One convergence experiment, as ``penumbra converge`` runs it: a ground truth
-    (cached under ``cache``, default ~/.cache/penumbra), then 1, 2, 4, ... max_spp
+    (cached under ``cache``, default ~/.cache/penumbra; rendered in chunks of
+    ``reference_chunk`` spp added in order), then 1, 2, 4, ... max_spp
     spp for each technique (every strategy with every ``mis`` mode; named
     "area" for MIS none, "area+power" otherwise) with ``seeds`` seeds, errors
     against the ground truth, fits. With ``out``, also writes the CLI's files there (measurements.csv,
     summary.json, crops, images).
 
     ``scene`` is a built-in scene's name or a scene file; ``overrides`` as in
-    load_scene. The other arguments are the CLI's options of the same names.
+    load_scene; ``gpus`` as in render(). The other arguments are the CLI's options of the same names.
     """
+    options = {k: v for k, v in locals().items() if k not in ("scene", "progress")}
+    rows, summary = _penumbra.converge(_converge_options(scene, options), progress)
+    return ConvergeResult(rows, summary)
+
+
+def _converge_options(scene: Union[str, "os.PathLike[str]"], options: Mapping[str, Any]) -> Any:
+    """converge()'s keyword arguments (any subset; the rest take converge()'s
+    defaults) as the library's ConvergeOptions. TypeError for an unknown name."""
     if not isinstance(scene, (str, os.PathLike)):
         raise TypeError("converge() takes a built-in scene's name or a scene file (save a dict with json.dump)")
-    if isinstance(strategies, str):
-        strategies = [strategies]
-    if isinstance(mis, str):
-        mis = [mis]
-    rows, summary = _penumbra.converge(
-        os.fspath(scene), _override_list(overrides), os.fspath(out) if out else "", os.fspath(cache) if cache else "",
-        _check_backend(backend), list(strategies), list(mis), reference_strategy, reference_mis, width or 0,
-        height or 0, max_spp, seeds,
-        reference_spp, crop_spp, fit_min_spp, _threads(threads), float(threshold), list(crop or []), verbose,
-        progress)
-    return ConvergeResult(rows, summary)
+    params = inspect.signature(converge).parameters
+    unknown = [k for k in options if k not in params or k in ("scene", "progress")]
+    if unknown:
+        raise TypeError(f"unknown converge option(s): {', '.join(unknown)}")
+    a = {k: p.default for k, p in params.items() if k not in ("scene", "progress")}
+    a.update(options)
+    o = _penumbra.ConvergeOptions()
+    o.scene = os.fspath(scene)
+    o.sets = _override_list(a["overrides"])
+    o.out = os.fspath(a["out"]) if a["out"] else ""
+    o.cache = os.fspath(a["cache"]) if a["cache"] else ""
+    o.backend = _check_backend(a["backend"])
+    o.gpus = _gpus(a["gpus"])
+    o.strategies = [a["strategies"]] if isinstance(a["strategies"], str) else list(a["strategies"])
+    o.mis = [a["mis"]] if isinstance(a["mis"], str) else list(a["mis"])
+    o.reference_strategy = a["reference_strategy"]
+    o.reference_mis = a["reference_mis"]
+    o.width = a["width"] or 0
+    o.height = a["height"] or 0
+    for k in ("max_spp", "seeds", "reference_spp", "reference_chunk", "crop_spp", "fit_min_spp"):
+        setattr(o, k, a[k])
+    o.threads = _threads(a["threads"])
+    o.threshold = float(a["threshold"])
+    o.crop = list(a["crop"] or [])
+    o.verbose = bool(a["verbose"])
+    return o
+
+
+def converge_plan(scene: Union[str, "os.PathLike[str]"], **options: Any) -> Dict[str, Any]:
+    """What converge(scene, **options) will do, without rendering: a dict with
+    ``reference`` (``key``: the ground-truth cache's key, ``path`` and ``var_path``:
+    its files, ``width``, ``height``, ``spp``, ``chunk_spp``, ``chunks``, ``cached``)
+    and ``techniques`` (in the order of measurements.csv: ``name``, ``strategy``, ``mis``).
+    ``options`` are converge()'s keyword arguments. Raises SceneError as converge() does."""
+    return _penumbra.converge_plan(_converge_options(scene, options))
+
+
+def render_reference_chunk(scene: Union[str, "os.PathLike[str]"], index: int, *,
+                           progress: Optional[ProgressFn] = None, **options: Any) -> Tuple[Any, Any, int]:
+    """Chunk ``index`` of the ground truth that converge(scene, **options) uses
+    (samples [index * chunk_spp, ...) of every pixel, see converge_plan()):
+    ``(sum, sum_sq, samples)``, the per-pixel sums of the samples' radiance and of
+    its squares as float64 arrays (H, W, 3), and how many samples per pixel.
+
+    Chunks may be rendered anywhere (e.g. as tasks on a cluster); their sums
+    added in chunk order (``sum = s0 + s1 + ...`` in float64, as numpy adds them)
+    are, to the bit, the sums converge() accumulates: store_reference() turns
+    them into its cached ground truth."""
+    s, s2, n = _penumbra.render_reference_chunk(_converge_options(scene, options), int(index), progress)
+    return s, s2, int(n)
+
+
+def store_reference(scene: Union[str, "os.PathLike[str]"], sums: Any, sums_sq: Any, **options: Any) -> str:
+    """Writes the ground truth of converge(scene, **options) into its cache from
+    the sums of all its samples (every chunk of render_reference_chunk(), added
+    in chunk order), as converge() writes it; converge() then finds it there.
+    Returns the mean's path. Raises ValueError when the sums do not have the
+    plan's size."""
+    import numpy as np
+
+    o = _converge_options(scene, options)
+    plan = _penumbra.converge_plan(o)["reference"]
+    s = np.ascontiguousarray(sums, dtype=np.float64)
+    s2 = np.ascontiguousarray(sums_sq, dtype=np.float64)
+    _penumbra.store_reference(o, s, s2, plan["spp"])
+    return plan["path"]
 
 
 def _mean_and_variance(x: Any) -> Tuple[Any, Any]:

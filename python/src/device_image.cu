@@ -35,12 +35,13 @@ __global__ void mean_variance(const double* sum, const double* sum_sq, size_t co
 }  // namespace
 
 std::shared_ptr<DeviceImage> DeviceImage::from_sums(const double* sums, const double* sums_sq, size_t count,
-                                                    uint64_t samples) {
+                                                    uint64_t samples, int device) {
+  check(cudaSetDevice(device), "cudaSetDevice");
   // Launches still running on the backend's stream (an interrupted render) first.
   check(cudaDeviceSynchronize(), "before the mean/variance kernel");
   std::shared_ptr<DeviceImage> img(new DeviceImage());
   img->count_ = count;
-  check(cudaGetDevice(&img->device_), "cudaGetDevice");
+  img->device_ = device;
   check(cudaMalloc(&img->rgb_, count * sizeof(float)), "cudaMalloc (image mean)");
   check(cudaMalloc(&img->variance_, count * sizeof(float)), "cudaMalloc (image variance)");
   const double inv = samples ? 1.0 / double(samples) : 0.0;
@@ -54,11 +55,13 @@ std::shared_ptr<DeviceImage> DeviceImage::from_sums(const double* sums, const do
 }
 
 DeviceImage::~DeviceImage() {
+  cudaSetDevice(device_);
   cudaFree(rgb_);
   cudaFree(variance_);
 }
 
 void DeviceImage::download(float* rgb, float* variance) const {
+  check(cudaSetDevice(device_), "cudaSetDevice");
   check(cudaMemcpy(rgb, rgb_, count_ * sizeof(float), cudaMemcpyDeviceToHost), "cudaMemcpy (image mean)");
   check(cudaMemcpy(variance, variance_, count_ * sizeof(float), cudaMemcpyDeviceToHost), "cudaMemcpy (image variance)");
 }

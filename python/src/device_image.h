@@ -14,10 +14,10 @@ namespace pn::py {
 
 class DeviceImage {
  public:
-  // From `count` sums and sums of squares (device pointers) of `samples` samples.
-  // Throws std::runtime_error on a CUDA failure.
+  // From `count` sums and sums of squares (device pointers on CUDA device
+  // `device`) of `samples` samples. Throws std::runtime_error on a CUDA failure.
   static std::shared_ptr<DeviceImage> from_sums(const double* sums, const double* sums_sq, size_t count,
-                                                uint64_t samples);
+                                                uint64_t samples, int device);
   ~DeviceImage();
   DeviceImage(const DeviceImage&) = delete;
   DeviceImage& operator=(const DeviceImage&) = delete;

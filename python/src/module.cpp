@@ -7,6 +7,7 @@
 // on the calling thread, so that Ctrl-C stops a render with KeyboardInterrupt,
 // and the caller's progress function. Errors: SceneError and BackendError
 // (python/penumbra/_errors.py), raised by the translator below.
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <memory>
@@ -321,14 +322,14 @@ them without a copy to the host.)")
   nb::class_<Renderer>(m, "Renderer")
       .def(
           "__init__",
-          [](Renderer* self, const PyScene& scene, const std::string& backend, int threads,
+          [](Renderer* self, const PyScene& scene, const std::string& backend, int threads, const std::string& gpus,
              const std::vector<std::string>& overrides) {
             backend_call([&] {
-              new (self) Renderer(scene.state, backend, threads, overrides);
+              new (self) Renderer(scene.state, backend, threads, gpus, overrides);
               return 0;
             });
           },
-          "scene"_a, "backend"_a, "threads"_a, "overrides"_a)
+          "scene"_a, "backend"_a, "threads"_a, "gpus"_a, "overrides"_a)
       .def("update",
            [](Renderer& r, const std::vector<std::string>& overrides) {
              backend_call([&] {
@@ -416,41 +417,42 @@ them without a copy to the host.)")
       "a"_a, "a_var"_a, "b"_a, "b_var"_a, "max_mean_rel_diff"_a, "max_image_z"_a, "outlier_z"_a,
       "max_outlier_fraction"_a);
 
+  // Convergence experiments: the options (render/converge.h) as an object that
+  // penumbra.converge() and the reference functions fill in.
+  nb::class_<ConvergeOptions>(m, "ConvergeOptions")
+      .def(nb::init<>())
+      .def_rw("scene", &ConvergeOptions::scene)
+      .def_rw("sets", &ConvergeOptions::sets)
+      .def_rw("out", &ConvergeOptions::out)
+      .def_rw("cache", &ConvergeOptions::cache)
+      .def_rw("backend", &ConvergeOptions::backend)
+      .def_rw("gpus", &ConvergeOptions::gpus)
+      .def_rw("strategies", &ConvergeOptions::strategies)
+      .def_rw("mis", &ConvergeOptions::mis)
+      .def_rw("reference_strategy", &ConvergeOptions::reference_strategy)
+      .def_rw("reference_mis", &ConvergeOptions::reference_mis)
+      .def_rw("width", &ConvergeOptions::width)
+      .def_rw("height", &ConvergeOptions::height)
+      .def_rw("max_spp", &ConvergeOptions::max_spp)
+      .def_rw("seeds", &ConvergeOptions::seeds)
+      .def_rw("reference_spp", &ConvergeOptions::reference_spp)
+      .def_rw("reference_chunk", &ConvergeOptions::reference_chunk)
+      .def_rw("crop_spp", &ConvergeOptions::crop_spp)
+      .def_rw("fit_min_spp", &ConvergeOptions::fit_min_spp)
+      .def_rw("threads", &ConvergeOptions::threads)
+      .def_rw("threshold", &ConvergeOptions::threshold)
+      .def_rw("crop", &ConvergeOptions::crop)
+      .def_rw("verbose", &ConvergeOptions::verbose);
+
   m.def(
       "converge",
-      [](const std::string& scene, const std::vector<std::string>& sets, const std::string& out,
-         const std::string& cache, const std::string& backend, const std::vector<std::string>& strategies,
-         const std::vector<std::string>& mis, const std::string& reference_strategy, const std::string& reference_mis,
-         int width, int height, int max_spp, int seeds, int reference_spp,
-         int crop_spp, int fit_min_spp, int threads, double threshold, const std::vector<int>& crop, bool verbose,
-         nb::object progress) {
-        ConvergeOptions o;
-        o.scene = scene;
-        o.sets = sets;
-        o.out = out;
-        o.cache = cache;
-        o.backend = backend;
-        o.strategies = strategies;
-        o.mis = mis;
-        o.reference_strategy = reference_strategy;
-        o.reference_mis = reference_mis;
-        o.width = width;
-        o.height = height;
-        o.max_spp = max_spp;
-        o.seeds = seeds;
-        o.reference_spp = reference_spp;
-        o.crop_spp = crop_spp;
-        o.fit_min_spp = fit_min_spp;
-        o.threads = threads;
-        o.threshold = threshold;
-        o.crop = crop;
-        o.verbose = verbose;
+      [](ConvergeOptions o, nb::object progress) {
         o.progress = python_progress(std::move(progress));
         ConvergeResult r = backend_call([&] { return run_converge(o); });
         nb::list rows;
         for (const ConvergeMeasurement& x : r.measurements) {
           nb::dict d;
-          d["scene"] = scene;
+          d["scene"] = o.scene;
           d["strategy"] = x.strategy;
           d["spp"] = x.spp;
           d["seed"] = x.seed;
@@ -463,8 +465,53 @@ them without a copy to the host.)")
         }
         return nb::make_tuple(rows, to_py(r.summary));
       },
-      "scene"_a, "sets"_a, "out"_a, "cache"_a, "backend"_a, "strategies"_a, "mis"_a, "reference_strategy"_a,
-      "reference_mis"_a, "width"_a,
-      "height"_a, "max_spp"_a, "seeds"_a, "reference_spp"_a, "crop_spp"_a, "fit_min_spp"_a, "threads"_a,
-      "threshold"_a, "crop"_a, "verbose"_a, "progress"_a.none());
+      "options"_a, "progress"_a.none());
+
+  m.def("converge_plan", [](const ConvergeOptions& o) {
+    ConvergePlan p = backend_call([&] { return plan_converge(o); });
+    const ReferencePlan& r = p.reference;
+    json techniques = json::array();
+    for (size_t i = 0; i < p.techniques.size(); ++i)
+      techniques.push_back({{"name", p.techniques[i]}, {"strategy", p.technique_parts[i].first},
+                            {"mis", p.technique_parts[i].second}});
+    json j = {{"reference", {{"key", r.key}, {"path", r.path}, {"var_path", r.var_path}, {"width", r.width},
+                             {"height", r.height}, {"spp", r.spp}, {"chunk_spp", r.chunk_spp}, {"chunks", r.chunks},
+                             {"cached", r.cached}}},
+              {"techniques", techniques}};
+    return to_py(j);
+  });
+
+  // A film's sums as two float64 numpy arrays (H, W, 3) that own a copy.
+  using SumsArray = nb::ndarray<nb::numpy, double, nb::shape<-1, -1, 3>>;
+  m.def(
+      "render_reference_chunk",
+      [](ConvergeOptions o, int index, nb::object progress) {
+        o.progress = python_progress(std::move(progress));
+        Film film = backend_call([&] { return render_reference_chunk(o, index); });
+        auto array = [&](const double* data) {
+          auto* v = new std::vector<double>(data, data + film.pixel_count() * 3);
+          nb::capsule owner(v, [](void* p) noexcept { delete static_cast<std::vector<double>*>(p); });
+          size_t shape[3] = {size_t(film.height()), size_t(film.width()), 3};
+          return SumsArray(v->data(), 3, shape, owner);
+        };
+        return nb::make_tuple(array(film.sum()), array(film.sum_sq()), film.samples());
+      },
+      "options"_a, "index"_a, "progress"_a.none());
+
+  using CSums = nb::ndarray<const double, nb::shape<-1, -1, 3>, nb::c_contig, nb::device::cpu>;
+  m.def(
+      "store_reference",
+      [](const ConvergeOptions& o, CSums sum, CSums sum_sq, uint64_t samples) {
+        if (sum.shape(0) != sum_sq.shape(0) || sum.shape(1) != sum_sq.shape(1))
+          throw std::invalid_argument("store_reference: sums and sums of squares differ in shape");
+        Film film(int(sum.shape(1)), int(sum.shape(0)));
+        std::copy(sum.data(), sum.data() + sum.size(), film.sum());
+        std::copy(sum_sq.data(), sum_sq.data() + sum_sq.size(), film.sum_sq());
+        film.add_samples(samples);
+        backend_call([&] {
+          store_reference(o, film);
+          return 0;
+        });
+      },
+      "options"_a, "sum"_a, "sum_sq"_a, "samples"_a);
 }

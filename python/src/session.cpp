@@ -109,9 +109,11 @@ const float* ImageData::variance() {
 
 // --- Renderer --------------------------------------------------------------------------
 
-Renderer::Renderer(const SceneState& scene, std::string backend, int threads,
+Renderer::Renderer(const SceneState& scene, std::string backend, int threads, std::string gpus,
                    const std::vector<std::string>& overrides)
-    : scene_(scene_with_overrides(scene, overrides)), which_(std::move(backend)), threads_(threads) {
+    : scene_(scene_with_overrides(scene, overrides)), which_(std::move(backend)), threads_(threads),
+      gpus_(std::move(gpus)) {
+  check_gpus(gpus_);
   if (which_ != "cpu" && which_ != "optix" && which_ != "auto")
     throw std::invalid_argument("unknown backend '" + which_ + "' (expected cpu, optix or auto)");
   frame_ = frame_of(scene_, &settings_);
@@ -127,6 +129,7 @@ void Renderer::build() {
   backend_.reset();  // the old one's device memory first
   BackendOptions opts;
   opts.threads = threads_;
+  opts.gpus = gpus_;
   backend_ = make_backend(which_, *scene_.scene, opts, &note_);
 #if PN_HAVE_OPTIX
   optix_ = dynamic_cast<OptixBackend*>(backend_.get());
@@ -181,16 +184,11 @@ void Renderer::render(uint32_t spp, const ProgressFn& progress) {
   // bits of `penumbra render`.
   pass_.reset(film_.width(), film_.height());
   backend().render(frame_, pass_, uint32_t(film_.samples()), spp, progress);
-  const size_t n = film_.pixel_count() * 3;
-  double* sum = film_.sum();
-  double* sum_sq = film_.sum_sq();
-  for (size_t i = 0; i < n; ++i) {
-    sum[i] += pass_.sum()[i];
-    sum_sq[i] += pass_.sum_sq()[i];
-  }
-  film_.add_samples(spp);
+  film_.add(pass_);
   render_seconds_ += seconds_since(t0);
-  rays_ += backend().last_render_stats().rays;
+  const RenderStats st = backend().last_render_stats();
+  rays_ += st.rays;
+  for (const auto& l : st.launches) gpu_ms_ += double(l.trace_ms) + l.accumulate_ms;
 }
 
 uint64_t Renderer::samples() const {
@@ -240,7 +238,16 @@ json Renderer::stats() const {
   const double samples = double(frame_.camera.width) * frame_.camera.height * double(spp);
   s["samples_per_second"] = render_seconds_ > 0 ? samples / render_seconds_ : 0.0;
   s["rays"] = rays_;  // 0: this backend does not count them
-  if (optix_) s["gpu_ms"] = gpu_ms_;
+  if (optix_ || gpu_ms_ > 0) s["gpu_ms"] = gpu_ms_;
+  // Several devices: each one's share of the last render() call.
+  const RenderStats last = backend().last_render_stats();
+  if (!last.devices.empty()) {
+    json devices = json::array();
+    for (const DeviceTiming& d : last.devices)
+      devices.push_back({{"device", d.device}, {"first_sample", d.first_sample}, {"count", d.count},
+                         {"wall_ms", d.wall_ms}, {"gpu_ms", d.gpu_ms}});
+    s["devices"] = devices;
+  }
   json info = json::object();
   for (const auto& [k, v] : backend().device_info()) info[k] = v;
   s["device_info"] = info;
@@ -256,7 +263,8 @@ std::shared_ptr<ImageData> Renderer::image() {
   img->stats = stats();
 #if PN_HAVE_OPTIX
   if (optix_) {
-    img->device = DeviceImage::from_sums(optix_->device_sums(), optix_->device_sums_sq(), img->count(), img->spp);
+    img->device = DeviceImage::from_sums(optix_->device_sums(), optix_->device_sums_sq(), img->count(), img->spp,
+                                         optix_->cuda_device());
     return img;
   }
 #endif

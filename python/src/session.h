@@ -80,9 +80,12 @@ class ImageData {
 // accumulation over. Methods may be called from any thread, one at a time.
 class Renderer {
  public:
-  // `backend`: "cpu", "optix" or "auto"; `overrides` apply to `scene` first.
-  // Throws SceneError or std::runtime_error.
-  Renderer(const SceneState& scene, std::string backend, int threads, const std::vector<std::string>& overrides);
+  // `backend`: "cpu", "optix" or "auto"; `gpus`: --gpus ("all", "2", "0,2":
+  // several GPUs split every render, and the image comes back through the host);
+  // `overrides` apply to `scene` first. Throws SceneError, std::invalid_argument
+  // (a malformed `gpus`) or std::runtime_error.
+  Renderer(const SceneState& scene, std::string backend, int threads, std::string gpus,
+           const std::vector<std::string>& overrides);
   ~Renderer();
 
   // Applies "key=value" overrides to the scene and restarts the accumulation.
@@ -113,8 +116,9 @@ class Renderer {
   FrameSpec frame_;
   std::string which_, note_;
   int threads_ = 0;
+  std::string gpus_;
   std::unique_ptr<Backend> backend_;
-  OptixBackend* optix_ = nullptr;  // backend_ when it is the GPU one: accumulation on the device
+  OptixBackend* optix_ = nullptr;  // backend_ when it is one GPU: accumulation on the device
   Film film_, pass_;               // CPU: the accumulation, and one render() call's samples
   int builds_ = 0;
   double build_seconds_ = 0, render_seconds_ = 0, gpu_ms_ = 0;
