@@ -33,9 +33,11 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 # Python, from PyPI: numpy and matplotlib for the experiment reports (scripts/study.py);
-# nanobind and scikit-build-core build the Python module (python/), pytest tests it.
+# nanobind and scikit-build-core build the Python module (python/), pytest tests it;
+# ray runs the study on a cluster (study.py --executor ray, docs/cluster.md; the test
+# study_ray; about 240 MB).
 py_missing=()
-for m in numpy:numpy matplotlib:matplotlib nanobind:nanobind scikit_build_core:scikit-build-core pytest:pytest; do
+for m in numpy:numpy matplotlib:matplotlib nanobind:nanobind scikit_build_core:scikit-build-core pytest:pytest ray:ray; do
   python3 -c "import ${m%%:*}" >/dev/null 2>&1 || py_missing+=("${m#*:}")
 done
 if [ ${#py_missing[@]} -gt 0 ]; then

@@ -6,11 +6,13 @@ figures + CSV/JSON of every measurement).
     python3 scripts/study.py --out docs/results              # the full study (GPU)
     python3 scripts/study.py --preset smoke --out /tmp/smoke --check   # CI: tiny, on the CPU
     PYTHONPATH=build/python python3 scripts/study.py --engine python ...   # through the Python module
+    python3 scripts/study.py --executor ray --address HEAD:6379 ...        # as tasks on a Ray cluster (docs/cluster.md)
 
 Presets say what each figure uses; the report repeats it. Ground truths are
 cached by `penumbra converge` (see --cache), so a rerun only renders what changed.
 """
 import argparse
+import collections
 import csv
 import datetime
 import glob
@@ -36,34 +38,34 @@ BOX = (5.56, 5.488, 5.592)  # the Cornell box's extent (x, y, z) in the built-in
 
 PRESETS = {
     # Headline scenes at the thesis's resolution and ground truth; sweeps smaller.
-    "full": dict(headline=dict(width=1920, height=1080, reference_spp=65536, max_spp=1024, seeds=4),
-                 sweep=dict(width=480, height=270, reference_spp=8192, max_spp=256, seeds=2),
+    "full": dict(headline=dict(width=1920, height=1080, reference_spp=65536, max_spp=1024, seeds=4, reference_chunk=4096),
+                 sweep=dict(width=480, height=270, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096),
                  radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
                  slat_widths=[0.02, 0.08, 0.14, 0.2, 0.23]),
     # What one GPU session's device time affords (about 10 minutes on the H100): the
     # headline scenes at full resolution with a smaller ground truth.
-    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=8192, max_spp=512, seeds=4),
-                sweep=dict(width=480, height=270, reference_spp=8192, max_spp=256, seeds=2),
+    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=8192, max_spp=512, seeds=4, reference_chunk=4096),
+                sweep=dict(width=480, height=270, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096),
                 radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
                 slat_widths=[0.02, 0.08, 0.14, 0.2, 0.23]),
     # What fits in a CI run on two CPU cores: the same pipeline, tiny.
-    "smoke": dict(headline=dict(width=32, height=32, reference_spp=4096, max_spp=256, seeds=4),
-                  sweep=dict(width=24, height=24, reference_spp=1024, max_spp=64, seeds=2),
+    "smoke": dict(headline=dict(width=32, height=32, reference_spp=4096, max_spp=256, seeds=4, reference_chunk=1024),
+                  sweep=dict(width=24, height=24, reference_spp=1024, max_spp=64, seeds=2, reference_chunk=512),
                   radii=[0.05, 0.4], near_k=[2, 8], slat_widths=[0.08, 0.2]),
 }
 # The light-sampling lab (issue 10): every strategy x MIS mode on the lab's
 # scenes, and its sweeps. Sizes per preset.
 LAB_PRESETS = {
-    "full": dict(headline=dict(width=960, height=540, reference_spp=16384, max_spp=256, seeds=2),
-                 sweep=dict(width=480, height=270, reference_spp=4096, max_spp=128, seeds=2),
+    "full": dict(headline=dict(width=960, height=540, reference_spp=16384, max_spp=256, seeds=2, reference_chunk=4096),
+                 sweep=dict(width=480, height=270, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=4096),
                  radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
                  roughness=[0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0], panel_offsets=[0.0, 0.2, 0.5, 1.0, 2.0]),
-    "gpu": dict(headline=dict(width=640, height=360, reference_spp=8192, max_spp=256, seeds=2),
-                sweep=dict(width=320, height=180, reference_spp=4096, max_spp=128, seeds=2),
+    "gpu": dict(headline=dict(width=640, height=360, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096),
+                sweep=dict(width=320, height=180, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=4096),
                 radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
                 roughness=[0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0], panel_offsets=[0.0, 0.2, 0.5, 1.0, 2.0]),
-    "smoke": dict(headline=dict(width=24, height=24, reference_spp=2048, max_spp=64, seeds=2),
-                  sweep=dict(width=16, height=16, reference_spp=1024, max_spp=32, seeds=2),
+    "smoke": dict(headline=dict(width=24, height=24, reference_spp=2048, max_spp=64, seeds=2, reference_chunk=1024),
+                  sweep=dict(width=16, height=16, reference_spp=1024, max_spp=32, seeds=2, reference_chunk=512),
                   radii=[0.05, 0.4], near_k=[2, 8], roughness=[0.05, 0.6], panel_offsets=[0.0, 1.0]),
 }
 LAB_SCENES = ["cornell-sphere", "cornell-near", "occlusion", "cornell-quad", "polygon-near", "glossy"]
@@ -91,33 +93,52 @@ def parse_set(assignment):
         return key, text
 
 
+# One `penumbra converge` run of the study: a headline scene or a sweep point.
+Run = collections.namedtuple("Run", "name scene cfg sets strategies mis out")
+
+
 def converge(args, name, scene, cfg, sets=(), strategies=STRATEGIES, mis=("none",), out_dir=None):
+    """Runs one experiment (or, with --report-only, reads it) and returns its summary."""
     out = os.path.join(out_dir or args.out, "runs", name)
-    if args.engine == "python" and not args.report_only:
+    if args.report_only:
+        return load_summary(out, name)
+    return args.run_converge(Run(name, scene, cfg, tuple(sets), tuple(strategies), tuple(mis), out))
+
+
+def converge_options(args, run):
+    """A run as penumbra.converge()'s keyword arguments (the CLI's options of the same names)."""
+    cfg = run.cfg
+    return dict(backend=args.backend, gpus=args.gpus, width=cfg["width"], height=cfg["height"],
+                reference_spp=cfg["reference_spp"], reference_chunk=cfg["reference_chunk"], max_spp=cfg["max_spp"],
+                seeds=cfg["seeds"], strategies=list(run.strategies), mis=list(run.mis), cache=args.cache,
+                overrides=dict(parse_set(s) for s in run.sets))
+
+
+def run_local(args, run):
+    """The local executor: the run now, on this machine, with the executable or the module."""
+    cfg = run.cfg
+    if args.engine == "python":
         # The same experiment in this process: penumbra.converge() is the CLI's code.
         import penumbra
-        log(f"study: penumbra.converge({scene!r}, out={out!r}, {cfg}, overrides={list(sets)})")
+        log(f"study: penumbra.converge({run.scene!r}, out={run.out!r}, {cfg}, overrides={list(run.sets)})")
         try:
-            penumbra.converge(scene, out=out, backend=args.backend, width=cfg["width"], height=cfg["height"],
-                              reference_spp=cfg["reference_spp"], max_spp=cfg["max_spp"], seeds=cfg["seeds"],
-                              strategies=list(strategies), mis=list(mis), cache=args.cache,
-                              overrides=dict(parse_set(s) for s in sets), verbose=True)
+            penumbra.converge(run.scene, out=run.out, verbose=True, **converge_options(args, run))
         except penumbra.SceneError as e:
             raise RunFailed(str(e)) from e
-        return load_summary(out, name)
-    cmd = [args.penumbra, "converge", scene, "--out", out, "--backend", args.backend,
+        return load_summary(run.out, run.name)
+    cmd = [args.penumbra, "converge", run.scene, "--out", run.out, "--backend", args.backend, "--gpus", args.gpus,
            "--width", str(cfg["width"]), "--height", str(cfg["height"]),
-           "--reference-spp", str(cfg["reference_spp"]), "--max-spp", str(cfg["max_spp"]),
-           "--seeds", str(cfg["seeds"]), "--strategies", ",".join(strategies), "--mis", ",".join(mis)]
+           "--reference-spp", str(cfg["reference_spp"]), "--reference-chunk", str(cfg["reference_chunk"]),
+           "--max-spp", str(cfg["max_spp"]), "--seeds", str(cfg["seeds"]),
+           "--strategies", ",".join(run.strategies), "--mis", ",".join(run.mis)]
     if args.cache:
         cmd += ["--cache", args.cache]
-    for s in sets:
+    for s in run.sets:
         cmd += ["--set", s]
-    if not args.report_only:
-        log("study: " + " ".join(cmd))
-        if subprocess.run(cmd).returncode != 0:
-            raise RunFailed(f"penumbra converge failed for {name} (its error is above)")
-    return load_summary(out, name)
+    log("study: " + " ".join(cmd))
+    if subprocess.run(cmd).returncode != 0:
+        raise RunFailed(f"penumbra converge failed for {run.name} (its error is above)")
+    return load_summary(run.out, run.name)
 
 
 def load_summary(out, name):
@@ -671,50 +692,15 @@ def run_lab(args):
     return not (args.check and head and not lab_check(head))
 
 
-def main():
-    here = os.path.dirname(os.path.abspath(__file__))
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--preset", choices=sorted(PRESETS), default="full")
-    ap.add_argument("--out", default="docs/results", help="report folder")
-    ap.add_argument("--penumbra", default=os.path.join(here, "..", "build", "penumbra"), help="the executable")
-    ap.add_argument("--engine", choices=["cli", "python"], default="cli",
-                    help="run each experiment with the executable (default) or the Python module penumbra "
-                         "(importable: pip install ., or PYTHONPATH=build/python)")
-    ap.add_argument("--backend", default="auto", choices=["auto", "cpu", "optix"])
-    ap.add_argument("--cache", help="ground-truth cache folder (default: penumbra's)")
-    ap.add_argument("--part", choices=["thesis", "lab", "all"], default="all",
-                    help="thesis: chapter 4 (area against solid-angle, docs/results/README.md); lab: every strategy and "
-                         "MIS mode on the lab's scenes (docs/results/lab/README.md); all: both")
-    ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
-    ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES)),
-                    help="run only this headline scene (repeatable): split a long study over several GPU calls, "
-                         "then --report-only over the merged runs")
-    ap.add_argument("--check", action="store_true", help="assert slopes and the near-light win (CI smoke test)")
-    ap.add_argument("--keep-runs", action="store_true", help="keep the crops (.npy) the figures are drawn from")
-    ap.add_argument("--report-only", action="store_true",
-                    help="draw the report from the runs already in --out (e.g. made on a GPU machine without matplotlib)")
-    ap.add_argument("--no-report", action="store_true", help="run the experiments only (implies --keep-runs)")
-    args = ap.parse_args()
-    if args.no_report:
-        args.keep_runs = True
-    if args.engine == "python" and not args.report_only:
-        try:
-            import penumbra  # noqa: F401
-        except ImportError as e:
-            sys.exit(f"study: --engine python: cannot import penumbra ({e}): pip install ., or PYTHONPATH=build/python")
-    elif not args.report_only and not os.path.exists(args.penumbra):
-        sys.exit(f"study: {args.penumbra}: no such executable (build first, or pass --penumbra)")
-    if plt is None and not args.no_report:
-        log("study: numpy and matplotlib are needed for the report (python3 -m pip install numpy matplotlib), "
-            "or use --no-report")
-        sys.exit(77)  # CTest's skip code: a machine without them (CI installs them) skips the smoke test
-    preset = PRESETS[args.preset]
-    os.makedirs(args.out, exist_ok=True)
+def run_study(args):
+    """Every part the arguments ask for: runs (through args.run_converge), reports,
+    checks. False: a check failed."""
     ok = True
     if args.part in ("lab", "all"):
         ok = run_lab(args) and ok
     if args.part == "lab":
-        sys.exit(0 if ok else 1)
+        return ok
+    preset = PRESETS[args.preset]
     scenes = HEADLINE if args.report_only or not args.scene else [s for s in args.scene if s in HEADLINE]
     head = [converge(args, s, s, preset["headline"]) for s in scenes] if args.only != "sweeps" else []
     radius_runs, near_runs, slat_runs = [], [], []
@@ -735,9 +721,101 @@ def main():
         log(f"study: wrote {os.path.join(args.out, 'README.md')}")
     if args.check and head and not check(head):
         ok = False
-    if not ok:
+    return ok
+
+
+def run_on_ray(args):
+    """The Ray executor: lists the runs (a pass of the study that runs nothing),
+    runs them as Ray tasks (scripts/study_ray.py), which leave each run's files in
+    --out as `penumbra converge` would; the study then reads them."""
+    import copy
+    import penumbra
+    import study_ray
+
+    runs = []
+
+    def collect(run):
+        try:  # the scene is loaded here: a broken one fails where the local executor's would
+            plan = penumbra.converge_plan(run.scene, **converge_options(args, run))
+        except penumbra.SceneError as e:
+            raise RunFailed(str(e)) from e
+        runs.append((run, plan))
+        return None  # no summary yet: the listing pass draws no report and checks nothing
+
+    listing = copy.copy(args)
+    listing.run_converge, listing.no_report, listing.check, listing.keep_runs = collect, True, False, True
+    run_study(listing)
+    failed = study_ray.execute(args, runs, converge_options)
+
+    def done(run):
+        if run.out in failed:
+            raise RunFailed(failed[run.out])
+        return load_summary(run.out, run.name)
+    return done
+
+
+def main():
+    here = os.path.dirname(os.path.abspath(__file__))
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--preset", choices=sorted(PRESETS), default="full")
+    ap.add_argument("--out", default="docs/results", help="report folder")
+    ap.add_argument("--penumbra", default=os.path.join(here, "..", "build", "penumbra"), help="the executable")
+    ap.add_argument("--engine", choices=["cli", "python"], default="cli",
+                    help="run each experiment with the executable (default) or the Python module penumbra "
+                         "(importable: pip install ., or PYTHONPATH=build/python)")
+    ap.add_argument("--backend", default="auto", choices=["auto", "cpu", "optix"])
+    ap.add_argument("--gpus", default="all",
+                    help="local executor: the GPUs that split each render (penumbra converge --gpus: all, N or 0,2)")
+    ap.add_argument("--cache", help="ground-truth cache folder (default: penumbra's); the Ray executor also keeps "
+                                    "its finished tasks there (study-results/), so that an interrupted study resumes")
+    ap.add_argument("--executor", choices=["local", "ray"], default="local",
+                    help="local (default): one experiment after the other on this machine; ray: the study as tasks "
+                         "(ground-truth chunks, one per technique of each experiment) on a Ray cluster or a Ray "
+                         "instance on this machine, through the Python module (docs/cluster.md)")
+    ap.add_argument("--address", help="ray: the cluster to join (the head's HOST:6379, or 'auto'); default: start "
+                                      "Ray on this machine")
+    ap.add_argument("--task-gpus", type=float, default=1.0,
+                    help="ray, GPU backend: GPUs per task (num_gpus; each task splits its renders across them)")
+    ap.add_argument("--task-cpus", type=int, default=1,
+                    help="ray: CPUs per task (num_cpus; with the CPU backend, its render threads)")
+    ap.add_argument("--ray-cpus", type=int,
+                    help="ray without --address: the CPUs the Ray instance on this machine may use (default: all)")
+    ap.add_argument("--retries", type=int, default=3,
+                    help="ray: how often a task whose worker or machine is lost runs again (Ray's max_retries)")
+    ap.add_argument("--part", choices=["thesis", "lab", "all"], default="all",
+                    help="thesis: chapter 4 (area against solid-angle, docs/results/README.md); lab: every strategy and "
+                         "MIS mode on the lab's scenes (docs/results/lab/README.md); all: both")
+    ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
+    ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES)),
+                    help="run only this headline scene (repeatable): split a long study over several GPU calls, "
+                         "then --report-only over the merged runs")
+    ap.add_argument("--check", action="store_true", help="assert slopes and the near-light win (CI smoke test)")
+    ap.add_argument("--keep-runs", action="store_true", help="keep the crops (.npy) the figures are drawn from")
+    ap.add_argument("--report-only", action="store_true",
+                    help="draw the report from the runs already in --out (e.g. made on a GPU machine without matplotlib)")
+    ap.add_argument("--no-report", action="store_true", help="run the experiments only (implies --keep-runs)")
+    args = ap.parse_args()
+    if args.no_report:
+        args.keep_runs = True
+    if (args.engine == "python" or args.executor == "ray") and not args.report_only:
+        try:
+            import penumbra  # noqa: F401
+        except ImportError as e:
+            sys.exit(f"study: --{'engine python' if args.engine == 'python' else 'executor ray'}: cannot import "
+                     f"penumbra ({e}): pip install ., or PYTHONPATH=build/python")
+    elif not args.report_only and not os.path.exists(args.penumbra):
+        sys.exit(f"study: {args.penumbra}: no such executable (build first, or pass --penumbra)")
+    if plt is None and not args.no_report:
+        log("study: numpy and matplotlib are needed for the report (python3 -m pip install numpy matplotlib), "
+            "or use --no-report")
+        sys.exit(77)  # CTest's skip code: a machine without them (CI installs them) skips the smoke test
+    os.makedirs(args.out, exist_ok=True)
+    args.run_converge = lambda run: run_local(args, run)
+    if args.executor == "ray" and not args.report_only:
+        args.run_converge = run_on_ray(args)
+    if not run_study(args):
         sys.exit(1)
-    if not args.keep_runs:
+    if not args.keep_runs and args.part != "lab":
         # Keep what the report needs to stay reproducible and small: CSV, JSON, PNG.
         for root, _, files in os.walk(os.path.join(args.out, "runs")):
             for f in files:
