@@ -119,8 +119,8 @@ def scenes() -> List[str]:
 
 def build_info() -> Dict[str, Any]:
     """What this module was built with: ``optix`` (the GPU backend is in it),
-    ``gpu_available`` and, if not, ``gpu_unavailable_reason``, ``strategies``,
-    ``git_commit``."""
+    ``gpu_available`` and, if not, ``gpu_unavailable_reason``, ``gpus`` (how
+    many this process sees), ``strategies``, ``git_commit``."""
     return _penumbra.build_info()
 
 

@@ -207,10 +207,12 @@ NB_MODULE(_penumbra, m) {
     std::string why;
     info["gpu_available"] = optix_available(&why);
     info["gpu_unavailable_reason"] = why;
+    info["gpus"] = optix_device_count();
 #else
     info["optix"] = false;
     info["gpu_available"] = false;
     info["gpu_unavailable_reason"] = "built without the OptiX backend";
+    info["gpus"] = 0;
 #endif
     info["strategies"] = json::array();
     for (int i = 0; i < kNumStrategies; ++i) info["strategies"].push_back(strategy_name(Strategy(i)));

@@ -87,3 +87,25 @@ def test_ctrl_c_interrupts_a_gpu_render():
     seconds, spp = interrupted_render("optix", 1920, 1080, 100000)
     assert seconds < 5.0
     assert spp >= 1  # launches that started before the interrupt completed, and count
+
+
+def test_gpus_selects_gpus_and_splits_the_samples():
+    n = penumbra.build_info()["gpus"]
+    # 512 spp at 96x54: launches of 202 spp, so that two GPUs get 404 and 108.
+    one = penumbra.render("cornell-sphere", spp=512, backend="optix", gpus=1, **SIZE)
+    first = penumbra.render("cornell-sphere", spp=512, backend="optix", gpus=[0], **SIZE)
+    assert np.array_equal(one.rgb, first.rgb) and "devices" not in one.stats
+    with pytest.raises(ValueError, match="gpus"):
+        penumbra.render("cornell-sphere", spp=1, backend="optix", gpus=n + 1, **SIZE)
+    if n < 2:
+        pytest.skip("one GPU: the split across GPUs needs two (tests/test_multi_backend.cpp checks it on the CPU)")
+    two = penumbra.render("cornell-sphere", spp=512, backend="optix", gpus=2, **SIZE)
+    assert not two.on_gpu  # accumulated on the host
+    assert two.rgb.tobytes() == one.rgb.tobytes() and two.variance.tobytes() == one.variance.tobytes()
+    assert [(d["first_sample"], d["count"]) for d in two.stats["devices"]] == [(0, 404), (404, 108)]
+    # Progressive: the launches of one GPU's progressive renders, on two.
+    r1 = penumbra.Renderer("cornell-sphere", backend="optix", gpus=1, **SIZE)
+    r2 = penumbra.Renderer("cornell-sphere", backend="optix", gpus=2, **SIZE)
+    for spp in (300, 700):
+        a, b = r1.render(spp), r2.render(spp)
+    assert b.spp == 1000 and b.rgb.tobytes() == a.rgb.tobytes()
