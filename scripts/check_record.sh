@@ -1,8 +1,10 @@
 # PASS/FAIL bookkeeping of the GPU-machine check scripts (gpu_check.sh,
-# python_gpu_check.sh), sourced by them:
+# python_gpu_check.sh, multi_gpu_check.sh), sourced by them:
 #   record NAME STATUS     prints NAME with PASS (STATUS 0) or FAIL, and remembers it
 #   finish_checks TITLE    prints every verdict and "TITLE: PASS (N checks)" or "TITLE: FAIL";
 #                          returns 0 only if every check passed
+#   gpu_build DIR TITLE [TARGET]  configures (Release, CMAKE_CUDA_ARCHITECTURES=90, OptiX_ROOT from the
+#                          environment or .optix/) and builds DIR; on failure prints "TITLE: FAIL" and exits
 declare -a names=() verdicts=()
 failed=0
 record() {
@@ -19,4 +21,13 @@ finish_checks() {
   fi
   echo "$1: FAIL"
   return 1
+}
+gpu_build() {
+  local dir=$1 title=$2 root optix_root
+  root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+  optix_root=${OptiX_ROOT:-$root/.optix}
+  echo "== configure and build $dir (OptiX_ROOT=$optix_root)"
+  cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CUDA_ARCHITECTURES=90 \
+    -DOptiX_ROOT="$optix_root" || { echo "$title: FAIL: configure"; exit 1; }
+  cmake --build "$dir" ${3:+--target "$3"} || { echo "$title: FAIL: build"; exit 1; }
 }

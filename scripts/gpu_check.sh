@@ -41,15 +41,11 @@ height=${GPU_CHECK_HEIGHT:-72}
 spp=${GPU_CHECK_SPP:-1024}
 real_scenes=${GPU_CHECK_REAL_SCENES:-glossy sponza}
 
-source "$root/scripts/check_record.sh"  # record NAME STATUS, finish_checks TITLE
+source "$root/scripts/check_record.sh"  # record NAME STATUS, finish_checks TITLE, gpu_build DIR TITLE
 
 if [[ -z $build ]]; then
   build=$root/build-gpu-check
-  optix_root=${OptiX_ROOT:-$root/.optix}
-  echo "== configure and build $build (OptiX_ROOT=$optix_root)"
-  cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CUDA_ARCHITECTURES=90 \
-    -DOptiX_ROOT="$optix_root" || { echo "gpu_check: FAIL: configure"; exit 1; }
-  cmake --build "$build" || { echo "gpu_check: FAIL: build"; exit 1; }
+  gpu_build "$build" gpu_check
 fi
 build=$(cd "$build" && pwd)
 penumbra=$build/penumbra
