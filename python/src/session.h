@@ -119,7 +119,7 @@ class Renderer {
   std::string gpus_;
   std::unique_ptr<Backend> backend_;
   OptixBackend* optix_ = nullptr;  // backend_ when it is one GPU: accumulation on the device
-  Film film_, pass_;               // CPU: the accumulation, and one render() call's samples
+  Film film_, pass_;               // on the host (CPU, several GPUs): the accumulation, one call's samples
   int builds_ = 0;
   double build_seconds_ = 0, render_seconds_ = 0, gpu_ms_ = 0;
   uint64_t rays_ = 0;
