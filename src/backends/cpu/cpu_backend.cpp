@@ -101,6 +101,7 @@ class CpuBackend final : public Backend {
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
       const TriangleMesh& m = scene.meshes[mi];
       RTCScene ms = rtcNewScene(device_);
+      rtcSetSceneFlags(ms, RTC_SCENE_FLAG_ROBUST);  // watertight: no ray slips between two triangles of a mesh
       rtcSetSceneBuildQuality(ms, RTC_BUILD_QUALITY_HIGH);
       RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
       auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
@@ -126,6 +127,7 @@ class CpuBackend final : public Backend {
       mesh_scenes_.push_back(ms);
     }
     rtc_ = rtcNewScene(device_);
+    rtcSetSceneFlags(rtc_, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(rtc_, RTC_BUILD_QUALITY_HIGH);
     for (size_t ii = 0; ii < scene.instances.size(); ++ii) {
       const Instance& inst = scene.instances[ii];
