@@ -225,8 +225,8 @@ class CpuBackend final : public Backend {
     const uint64_t total = uint64_t(W) * H * count;
     std::atomic<int> next_tile{0};
     std::atomic<uint64_t> done{0};
-    std::atomic<uint64_t> nonfinite{0};
-    std::mutex progress_mutex;
+    std::mutex progress_mutex, nonfinite_mutex;
+    stats_ = RenderStats();
     Tracer tracer{this};
     double* sum = film.sum();
     double* sum_sq = film.sum_sq();
@@ -235,10 +235,10 @@ class CpuBackend final : public Backend {
       for (int t; (t = next_tile.fetch_add(1)) < num_tiles;) {
         int x0 = (t % tiles_x) * kTile, y0 = (t / tiles_x) * kTile;
         int x1 = std::min(x0 + kTile, W), y1 = std::min(y0 + kTile, H);
-        uint64_t bad = 0;
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
             double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+            uint64_t bad = 0;
             for (uint32_t i = 0; i < count; ++i) {
               Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
               if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
@@ -255,8 +255,12 @@ class CpuBackend final : public Backend {
               sum[o + c] += s[c];
               sum_sq[o + c] += s2[c];
             }
+            if (bad > 0) {
+              std::lock_guard<std::mutex> lock(nonfinite_mutex);
+              stats_.nonfinite += bad;
+              note_nonfinite_pixel(stats_, x, y, W);
+            }
           }
-        nonfinite += bad;
         uint64_t d = done += uint64_t(x1 - x0) * (y1 - y0) * count;
         if (progress) {
           std::lock_guard<std::mutex> lock(progress_mutex);
@@ -269,10 +273,9 @@ class CpuBackend final : public Backend {
     worker();
     for (auto& th : pool) th.join();
     film.add_samples(count);
-    if (nonfinite.load() > 0)
-      throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite.load()) +
-                               " samples were NaN or infinite (a bug in penumbra: please report the scene)");
   }
+
+  RenderStats last_render_stats() const override { return stats_; }
 
  private:
   const Scene& scene_;
@@ -281,6 +284,7 @@ class CpuBackend final : public Backend {
   FilterData filter_;
   std::vector<int> instance_of_geom_;  // top-level geometry ID -> instance index (-1: spheres)
   int threads_ = 1;
+  RenderStats stats_;  // of the last render()
   RTCDevice device_ = nullptr;
   RTCScene rtc_ = nullptr;              // top level: instances and the sphere set
   std::vector<RTCScene> mesh_scenes_;  // one per TriangleMesh

@@ -425,10 +425,12 @@ class OptixBackendImpl final : public OptixBackend {
       launch_sum_sq_.alloc(pixels * sizeof(float4), "the per-launch sample sums", size_);
       acc_sum_.alloc(pixels * 3 * sizeof(double), "the accumulation buffers", size_);
       acc_sum_sq_.alloc(pixels * 3 * sizeof(double), "the accumulation buffers", size_);
+      acc_bad_.alloc(pixels * sizeof(unsigned), "the accumulation buffers", size_);
       rgba_.release();
     }
     PN_CUDA(cudaMemsetAsync(acc_sum_.as<void>(), 0, acc_sum_.size(), stream_));
     PN_CUDA(cudaMemsetAsync(acc_sum_sq_.as<void>(), 0, acc_sum_sq_.size(), stream_));
+    PN_CUDA(cudaMemsetAsync(acc_bad_.as<void>(), 0, acc_bad_.size(), stream_));
     accumulated_ = 0;
   }
 
@@ -502,7 +504,8 @@ class OptixBackendImpl final : public OptixBackend {
       const float scale = std::exp2(exposure_) / float(accumulated_);
       PN_CUDA(optix::launch_accumulate(launch_sum_.as<float4>(), launch_sum_sq_.as<float4>(), pixels,
                                        acc_sum_.as<double>(), acc_sum_sq_.as<double>(),
-                                       counters_.as<unsigned long long>(), display_ ? rgba_.as<uchar4>() : nullptr,
+                                       counters_.as<unsigned long long>(), acc_bad_.as<unsigned>(),
+                                       display_ ? rgba_.as<uchar4>() : nullptr,
                                        scale, props_.multiProcessorCount, stream_));
       PN_CUDA(cudaEventRecord(s.end, stream_));
     }
@@ -511,7 +514,13 @@ class OptixBackendImpl final : public OptixBackend {
     unsigned long long counters[2] = {0, 0};
     PN_CUDA(cudaMemcpy(counters, counters_.as<void>(), sizeof counters, cudaMemcpyDeviceToHost));
     stats_.rays = counters[0];
-    nonfinite_ = counters[1];
+    stats_.nonfinite = counters[1];
+    if (stats_.nonfinite > 0) {  // which pixels: the first few, in row order
+      std::vector<unsigned> bad(pixels);
+      PN_CUDA(cudaMemcpy(bad.data(), acc_bad_.as<void>(), pixels * sizeof(unsigned), cudaMemcpyDeviceToHost));
+      for (size_t i = 0; i < pixels && stats_.nonfinite_pixels.size() < RenderStats::kMaxNonfinitePixels; ++i)
+        if (bad[i]) note_nonfinite_pixel(stats_, int(i % size_t(W)), int(i / size_t(W)), W);
+    }
   }
 
   void render(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
@@ -529,9 +538,6 @@ class OptixBackendImpl final : public OptixBackend {
     double* sum_sq = film.sum_sq();
     for (size_t i = 0; i < n; ++i) sum_sq[i] += host_[i];
     film.add_samples(count);
-    if (nonfinite_ > 0)
-      throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite_) +
-                               " samples were NaN or infinite (a bug in penumbra: please report the scene)");
   }
 
   void tonemap(float exposure_stops) override {
@@ -1045,7 +1051,7 @@ class OptixBackendImpl final : public OptixBackend {
     for (DeviceBuffer* b : {&sphere_gas_, &ias_, &instances_, &spheres_, &lights_, &light_cdf_, &materials_,
                             &texture_views_, &env_marginal_func_, &env_marginal_cdf_, &env_conditional_func_,
                             &env_conditional_cdf_, &params_, &counters_, &compacted_size_, &sbt_raygen_, &sbt_miss_,
-                            &sbt_hit_, &launch_sum_, &launch_sum_sq_, &acc_sum_, &acc_sum_sq_, &rgba_})
+                            &sbt_hit_, &launch_sum_, &launch_sum_sq_, &acc_sum_, &acc_sum_sq_, &acc_bad_, &rgba_})
       b->release();
     if (stream_) cudaStreamDestroy(stream_);
     stream_ = nullptr;
@@ -1084,12 +1090,11 @@ class OptixBackendImpl final : public OptixBackend {
   DeviceBuffer sphere_gas_, ias_, instances_, spheres_, lights_, light_cdf_, materials_, texture_views_;
   DeviceBuffer env_marginal_func_, env_marginal_cdf_, env_conditional_func_, env_conditional_cdf_;
   DeviceBuffer params_, counters_, compacted_size_, sbt_raygen_, sbt_miss_, sbt_hit_;
-  DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, rgba_;
+  DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, acc_bad_, rgba_;
   LaunchParams base_params_;
 
   int width_ = 0, height_ = 0;
   uint64_t accumulated_ = 0;
-  uint64_t nonfinite_ = 0;
   RenderStats stats_;
   SceneBuildStats build_stats_;
   std::vector<double> host_;
