@@ -25,13 +25,13 @@
 #include <imgui_stdlib.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
-#include <stb/stb_image_write.h>
 
 #include "apps/viewer/camera_control.h"
 #include "apps/viewer/camera_path.h"
 #include "apps/viewer/gl_display.h"
 #include "apps/viewer/progressive.h"
 #include "io/image.h"
+#include "io/output.h"
 #include "render/backend.h"
 #include "scene/scene.h"
 
@@ -205,7 +205,10 @@ class Viewer {
 
 Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   // Everything that can fail without a display fails before the window opens.
-  if (!opt_.screenshot.empty()) check_image_path(opt_.screenshot);
+  if (!opt_.screenshot.empty()) {  // before any work, as every output
+    check_image_path(opt_.screenshot);
+    check_output_file(opt_.screenshot, "--screenshot");
+  }
   if (!opt_.camera_path.empty()) path_ = load_camera_path(opt_.camera_path);
   scene_name_ = find_builtin(opt_.scene) ? opt_.scene : std::filesystem::path(opt_.scene).stem().string();
   load({});
@@ -533,8 +536,8 @@ void Viewer::window_screenshot(const std::string& path) {
   int fw, fh;
   glfwGetFramebufferSize(window_, &fw, &fh);
   std::vector<unsigned char> px = read_framebuffer_rgb(fw, fh);
-  if (!stbi_write_png(path.c_str(), fw, fh, 3, px.data(), fw * 3))
-    throw std::runtime_error(path + ": cannot write PNG (does the folder exist and is it writable?)");
+  const std::vector<uint8_t> png = encode_png(path, fw, fh, 3, px.data());
+  write_file_atomic(path, png.data(), png.size());
   std::fprintf(stderr, "wrote %s (the window, %dx%d)\n", path.c_str(), fw, fh);
 }
 
