@@ -10,6 +10,8 @@
 #include <stb/stb_image.h>
 #include <tinyexr.h>
 
+#include "render/resources.h"
+
 namespace pn {
 
 namespace {
@@ -37,9 +39,68 @@ bool size_ok(int w, int h, std::string* error) {
 
 float srgb_decode(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
+// Radiance is finite and never negative: channels that are not become 0.
+// Returns how many texels had one.
+size_t repair_float_texels(std::vector<uint8_t>& texels) {
+  size_t repaired = 0;
+  const size_t n = texels.size() / 16;
+  for (size_t i = 0; i < n; ++i) {
+    float c[4];
+    std::memcpy(c, &texels[16 * i], sizeof c);
+    bool bad = false;
+    for (float& v : c)
+      if (!(v >= 0.f) || !std::isfinite(v)) {  // NaN fails v >= 0
+        v = 0.f;
+        bad = true;
+      }
+    if (bad) {
+      std::memcpy(&texels[16 * i], c, sizeof c);
+      ++repaired;
+    }
+  }
+  return repaired;
+}
+
 bool is_exr(const uint8_t* d, size_t n) { return n >= 4 && d[0] == 0x76 && d[1] == 0x2f && d[2] == 0x31 && d[3] == 0x01; }
 
+// Whether decoding a w x h image fits in memory: ours, the decoder's own copy
+// and (EXR) its per-channel planes. Checked from the header, before decoding.
+bool memory_ok(int w, int h, bool is_float, std::string* error) {
+  const uint64_t texels = uint64_t(w) * uint64_t(h);
+  try {
+    check_memory("decoding a " + std::to_string(w) + "x" + std::to_string(h) + " image",
+                 {{"texels", texels * (is_float ? 16 : 4)}, {"the decoder's buffers", texels * (is_float ? 32 : 4)}});
+  } catch (const std::exception& e) {
+    *error = e.what();
+    return false;
+  }
+  return true;
+}
+
 bool decode_exr(const uint8_t* data, size_t size, DecodedImage* out, std::string* error) {
+  {  // the size, from the header
+    EXRVersion version;
+    EXRHeader header;
+    InitEXRHeader(&header);
+    const char* err = nullptr;
+    if (ParseEXRVersionFromMemory(&version, data, size) != TINYEXR_SUCCESS) {
+      *error = "cannot decode EXR: not an OpenEXR file";
+      return false;
+    }
+    if (ParseEXRHeaderFromMemory(&header, &version, data, size, &err) != TINYEXR_SUCCESS) {
+      *error = std::string("cannot decode EXR: ") + (err ? err : "invalid header");
+      if (err) FreeEXRErrorMessage(err);
+      return false;
+    }
+    const int64_t w = int64_t(header.data_window.max_x) - header.data_window.min_x + 1;
+    const int64_t h = int64_t(header.data_window.max_y) - header.data_window.min_y + 1;
+    FreeEXRHeader(&header);
+    if (w <= 0 || h <= 0 || w > (int64_t(1) << 30) || h > (int64_t(1) << 30)) {
+      *error = "cannot decode EXR: invalid data window";
+      return false;
+    }
+    if (!size_ok(int(w), int(h), error) || !memory_ok(int(w), int(h), true, error)) return false;
+  }
   float* rgba = nullptr;
   const char* err = nullptr;
   int w = 0, h = 0;
@@ -60,6 +121,7 @@ bool decode_exr(const uint8_t* data, size_t size, DecodedImage* out, std::string
   out->texels.resize(size_t(w) * h * 16);
   std::memcpy(out->texels.data(), rgba, out->texels.size());
   free(rgba);
+  out->repaired_texels = repair_float_texels(out->texels);
   return true;
 }
 
@@ -95,6 +157,7 @@ bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, Deco
   }
   if (!size_ok(w, h, error)) return false;
   const bool hdr = stbi_is_hdr_from_memory(data, int(size)) != 0;
+  if (!memory_ok(w, h, want_float, error)) return false;
   if (want_float) {
     // stbi_loadf would linearize 8-bit images with gamma 2.2; decode sRGB exactly instead.
     if (hdr) {
@@ -107,6 +170,7 @@ bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, Deco
       out->texels.resize(size_t(w) * h * 16);
       std::memcpy(out->texels.data(), f, out->texels.size());
       stbi_image_free(f);
+      out->repaired_texels = repair_float_texels(out->texels);
     } else {
       unsigned char* p = stbi_load_from_memory(data, int(size), &w, &h, &comp, 4);
       if (!p) {

@@ -351,6 +351,11 @@ void parse_models(const Node& n, Scene& s, const std::map<std::string, uint32_t>
         for (uint32_t mesh : it->second.meshes) s.meshes[mesh].face_materials.clear();
     }
     const LoadedModel& model = it->second;
+    const uint64_t adding = uint64_t(placements.size()) * model.placements.size();
+    if (s.instances.size() + adding > kMaxInstances)
+      m.fail("places " + std::to_string(adding) + " meshes (" + std::to_string(placements.size()) + " transforms x " +
+             std::to_string(model.placements.size()) + " mesh nodes), which brings the scene beyond " +
+             std::to_string(kMaxInstances) + " instances, penumbra's limit");
     for (const Affine& t : placements) {
       for (const ModelPlacement& pl : model.placements) {
         uint32_t mesh = pl.mesh;
@@ -447,6 +452,44 @@ Strategy parse_strategy(const std::string& name, const std::string& where) {
   throw SceneError(where + ": unknown strategy '" + name + "' (expected one of: " + strategy_names() + ")");
 }
 
+namespace {
+
+// The limits of scene.h over the whole scene, before finalize_scene() makes a
+// light of every placed emissive triangle.
+void check_scene_limits(const Scene& s) {
+  auto fail = [&](const std::string& msg) -> void { throw SceneError(s.source + ": " + msg); };
+  if (s.instances.size() > kMaxInstances)
+    fail(std::to_string(s.instances.size()) + " mesh instances, more than penumbra's limit of " +
+         std::to_string(kMaxInstances));
+  uint64_t placed = 0;
+  for (const Instance& inst : s.instances) placed += s.meshes[inst.mesh].indices.size();
+  if (placed > kMaxPlacedTriangles)
+    fail(std::to_string(placed) + " triangles placed, more than penumbra's limit of " +
+         std::to_string(kMaxPlacedTriangles));
+  // Emissive faces of each mesh with per-face materials, counted once a mesh.
+  std::vector<int64_t> mesh_emissive(s.meshes.size(), -1);
+  uint64_t emissive = 0;
+  for (const Instance& inst : s.instances) {
+    const TriangleMesh& m = s.meshes[inst.mesh];
+    if (inst.light >= 0) continue;  // a quad light is one light already
+    if (m.face_materials.empty()) {
+      emissive += is_black(s.materials[inst.material].emission) ? 0 : m.indices.size();
+      continue;
+    }
+    int64_t& n = mesh_emissive[inst.mesh];
+    if (n < 0) {
+      n = 0;
+      for (uint32_t fm : m.face_materials) n += is_black(s.materials[fm].emission) ? 0 : 1;
+    }
+    emissive += uint64_t(n);
+  }
+  if (emissive > kMaxTriangleLights)
+    fail(std::to_string(emissive) + " emissive triangles placed (each one a light), more than penumbra's limit of " +
+         std::to_string(kMaxTriangleLights));
+}
+
+}  // namespace
+
 Scene parse_scene(const json& doc, const std::string& source, const std::string& base_dir) {
   Scene s;
   s.source = source;
@@ -492,7 +535,11 @@ Scene parse_scene(const json& doc, const std::string& source, const std::string&
   else if (model_camera) s.camera = camera;
   else root.fail("missing required key 'camera' (and no model file has a perspective camera)");
   if (s.spheres.empty() && s.instances.empty()) root.fail("the scene has no shapes and no lights");
+  check_scene_limits(s);
   finalize_scene(s);
+  if (s.lights.empty() && is_black(s.background))
+    s.warnings.push_back(s.source + ": the scene has no light (no light, no emissive material, no environment, and a "
+                                    "black background): the image will be black");
   return s;
 }
 
@@ -523,6 +570,9 @@ void apply_override(json& doc, const std::string& assignment, const std::string&
       if (idx >= cur->size()) fail("index " + p + " is out of range (size " + std::to_string(cur->size()) + ")");
       cur = &(*cur)[idx];
     } else if (cur->is_object()) {
+      // "render" is optional and so is each of its keys: an override creates the
+      // block, so that render options work on scene files without one.
+      if (!last && !cur->contains(p) && i == 0 && p == "render") (*cur)[p] = json::object();
       if (!last && !cur->contains(p)) fail("no field '" + p + "' to descend into");
       if (last && cur->contains("radiance") && p == "power") cur->erase("radiance");
       if (last && cur->contains("power") && p == "radiance") cur->erase("power");
