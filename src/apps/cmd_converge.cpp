@@ -21,11 +21,14 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "apps/exit_status.h"
 #include "apps/progress.h"
 #include "io/image.h"
 #include "io/npy.h"
+#include "io/output.h"
 #include "render/backend.h"
 #include "render/metrics.h"
+#include "render/resources.h"
 #include "scene/scene.h"
 
 #ifndef PENUMBRA_GIT_COMMIT
@@ -45,7 +48,12 @@ struct ConvergeArgs {
   int threads = 0;
   double threshold = 0.05;
   std::vector<int> crop;  // x, y, w, h; empty: around the light
+  bool yes = false;            // run even when the estimate on the CPU exceeds kConfirmSeconds
+  bool estimate_only = false;  // print the estimate as JSON on stdout and stop
 };
+
+// Past this estimated time on the CPU, converge asks for --yes.
+constexpr double kConfirmSeconds = 3600;
 
 // FNV-1a: a stable hash for cache keys (std::hash is not stable across builds).
 uint64_t fnv1a(const std::string& s) {
@@ -102,29 +110,67 @@ void write_crop(const std::string& path, const std::vector<float>& img, int W, c
   write_npy(path, c[3], c[2], 3, out.data());
 }
 
+// What a converge run costs, measured before it starts: one render call of n
+// spp takes about overhead + n * per_spp seconds (per strategy).
+struct CallCost {
+  double overhead = 0, per_spp = 0;
+  double seconds(double calls, double spp) const { return calls * overhead + spp * per_spp; }
+};
+
+// Times a 1-spp and (when that was quick) an 8-spp render of the frame.
+CallCost measure_cost(Backend& b, const FrameSpec& f, int W, int H) {
+  auto timed = [&](uint32_t spp) {
+    Film film(W, H);
+    auto t0 = std::chrono::steady_clock::now();
+    b.render(f, film, 0, spp);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  timed(1);  // warm-up (first launches, caches)
+  const double one = timed(1);
+  CallCost c;
+  if (one > 0.5) {
+    c.per_spp = one;
+    return c;
+  }
+  const double eight = timed(8);
+  c.per_spp = std::max((eight - one) / 7, 0.0);
+  c.overhead = std::max(one - c.per_spp, 0.0);
+  if (c.per_spp == 0) c.per_spp = one / 8;
+  return c;
+}
+
 int run_converge(const ConvergeArgs& a) {
+  // Outputs first: a folder that cannot be written is found before any work.
+  const std::string out = a.out.empty() ? "converge-" + fs::path(a.scene).stem().string() : a.out;
+  const std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
+  if (!a.estimate_only) {
+    check_output_folder(out, "--out");
+    check_output_folder(cache, "--cache");
+  }
+
   std::vector<std::string> overrides = a.sets;
   if (a.width) overrides.push_back("render.width=" + std::to_string(a.width));
   if (a.height) overrides.push_back("render.height=" + std::to_string(a.height));
   std::string source;
   json doc = load_scene_json(a.scene, overrides, &source);
   Scene scene = load_scene(a.scene, overrides);
+  for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   const int W = scene.render.width, H = scene.render.height;
   std::vector<Strategy> strategies;
   for (const auto& s : a.strategies) strategies.push_back(parse_strategy(s, "--strategies"));
   Strategy ref_strategy = parse_strategy(a.reference_strategy, "--reference-strategy");
-  if (a.max_spp < 1 || a.seeds < 1 || a.reference_spp < 1 || a.crop_spp < 1)
-    throw std::runtime_error("converge: --max-spp, --seeds, --reference-spp and --crop-spp must be >= 1");
   std::vector<int> crop = a.crop.empty() ? auto_crop(scene) : a.crop;
   if (crop.size() != 4 || crop[2] < 1 || crop[3] < 1 || crop[0] < 0 || crop[1] < 0 || crop[0] + crop[2] > W ||
       crop[1] + crop[3] > H)
     throw std::runtime_error("converge: --crop must be x,y,w,h inside the " + std::to_string(W) + "x" +
                              std::to_string(H) + " image");
-
-  std::string out = a.out.empty() ? "converge-" + fs::path(a.scene).stem().string() : a.out;
-  fs::create_directories(out);
-  std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
-  fs::create_directories(cache);
+  // Two films (a render and the reference's), four float images (reference,
+  // its variance, a render's mean, the mask's) and one image being written.
+  check_memory(scene.source + ": converge at " + std::to_string(W) + "x" + std::to_string(H),
+               {{"films", 2 * film_bytes(W, H)},
+                {"images", 4 * uint64_t(W) * uint64_t(H) * 12},
+                {"writing images", image_write_bytes(W, H)},
+                {"acceleration structures", a.backend == "optix" ? 0 : cpu_backend_bytes(scene)}});
 
   BackendOptions opts;
   opts.threads = a.threads;
@@ -132,22 +178,68 @@ int run_converge(const ConvergeArgs& a) {
   std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
   std::fprintf(stderr, "%s\n", note.c_str());
 
-  // --- Ground truth (cached) --------------------------------------------------
-  // The key covers everything that changes the expected image and its noise:
-  // the scene document after overrides (geometry, camera, resolution, depth),
-  // the reference spp and strategy. Seed 0x5EED is kept for references only.
+  // The ground truth's cache key covers everything that changes the expected
+  // image and its noise: the scene document after overrides (geometry, camera,
+  // resolution, depth), the reference spp and strategy. Seed 0x5EED is kept for
+  // references only.
   const uint32_t kRefSeed = 0x5EED;
   json key_doc = doc;
-  key_doc["render"].erase("spp");
-  key_doc["render"].erase("strategy");
-  key_doc["render"].erase("seed");
+  if (key_doc.contains("render") && key_doc["render"].is_object()) {
+    key_doc["render"].erase("spp");
+    key_doc["render"].erase("strategy");
+    key_doc["render"].erase("seed");
+  }
   std::ostringstream key;
   key << std::hex << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + strategy_name(ref_strategy));
-  std::string ref_path = cache + "/ref-" + key.str() + ".exr";
-  std::string ref_var_path = cache + "/ref-" + key.str() + "_var.exr";
+  const std::string ref_path = cache + "/ref-" + key.str() + ".exr";
+  const std::string ref_var_path = cache + "/ref-" + key.str() + "_var.exr";
+  const bool cached = fs::exists(ref_path) && fs::exists(ref_var_path);
+
+  std::vector<int> spps;
+  for (int s = 1; s <= a.max_spp; s *= 2) spps.push_back(s);
+
+  // --- How long it will take -----------------------------------------------------
+  // Each strategy's cost per render call, measured; then the reference (in calls
+  // of 256 spp), the 16-spp light mask, and every strategy x seed x spp.
+  double estimate = 0;
+  {
+    FrameSpec f = frame_spec(scene);
+    f.integrator.strategy = ref_strategy;
+    const CallCost ref_cost = measure_cost(*backend, f, W, H);
+    if (!cached) estimate += ref_cost.seconds(std::ceil(a.reference_spp / 256.0), a.reference_spp);
+    estimate += ref_cost.seconds(1, 16);
+    double spp_total = 0;
+    for (int s : spps) spp_total += s;
+    for (Strategy st : strategies) {
+      f.integrator.strategy = st;
+      const CallCost c = st == ref_strategy ? ref_cost : measure_cost(*backend, f, W, H);
+      estimate += c.seconds(double(spps.size()) * a.seeds, spp_total * a.seeds);
+    }
+  }
+  const bool cpu = backend->name() == "cpu";
+  std::fprintf(stderr,
+               "converge: estimated run time %s on %s (%s): reference %d spp (%s), %zu strategies x %d seeds x 1..%d "
+               "spp at %dx%d\n",
+               format_duration(estimate).c_str(), backend->name().c_str(), backend->device_name().c_str(),
+               a.reference_spp, cached ? "cached" : "to render", strategies.size(), a.seeds, spps.back(), W, H);
+  if (a.estimate_only) {
+    json e = {{"seconds", estimate}, {"backend", backend->name()}, {"device", backend->device_name()},
+              {"reference_cached", cached}};
+    std::printf("%s\n", e.dump().c_str());
+    return kExitOk;
+  }
+  if (cpu && estimate > kConfirmSeconds && !a.yes)
+    throw std::runtime_error("converge: the estimated run time, " + format_duration(estimate) +
+                             " on the CPU, is more than an hour: pass --yes to run it (or lower --reference-spp, "
+                             "--max-spp, --seeds or the resolution)");
+  fs::create_directories(out);
+  fs::create_directories(cache);
+  uint64_t nonfinite = 0;  // samples left out, over every render
+  auto count_nonfinite = [&]() { nonfinite += backend->last_render_stats().nonfinite; };
+
+  // --- Ground truth (cached) --------------------------------------------------
   std::vector<float> ref, ref_var;
   double ref_seconds = 0;
-  bool cached = fs::exists(ref_path) && fs::exists(ref_var_path);
   if (cached) {
     int w, h, wv, hv;
     ref = read_exr(ref_path, &w, &h);
@@ -167,13 +259,13 @@ int run_converge(const ConvergeArgs& a) {
     for (uint32_t s = 0; s < uint32_t(a.reference_spp); s += chunk) {
       uint32_t n = std::min<uint32_t>(chunk, uint32_t(a.reference_spp) - s);
       backend->render(f, film, s, n, [&](uint64_t d, uint64_t) { bar.update(uint64_t(W) * H * s + d, total); });
+      count_nonfinite();
     }
     ref_seconds = bar.finish();
     ref = film.mean();
     ref_var = film.variance_of_mean();
     write_image(ref_var_path, W, H, ref_var);
-    write_image(ref_path + ".tmp.exr", W, H, ref);
-    fs::rename(ref_path + ".tmp.exr", ref_path);  // last: a reference exists only when complete
+    write_image(ref_path, W, H, ref);  // last: a reference exists only when complete
     std::fprintf(stderr, "reference: %s (%d spp, %s)\n", ref_path.c_str(), a.reference_spp,
                  format_duration(ref_seconds).c_str());
   }
@@ -189,6 +281,7 @@ int run_converge(const ConvergeArgs& a) {
     f.integrator.max_depth = 0;
     Film film(W, H);
     backend->render(f, film, 0, 16);
+    count_nonfinite();
     auto m = film.mean();
     for (size_t p = 0; p < mask.size(); ++p)
       if (m[3 * p] + m[3 * p + 1] + m[3 * p + 2] > 0.f) mask[p] = 0;
@@ -212,9 +305,7 @@ int run_converge(const ConvergeArgs& a) {
   floor_nolight = n_nolight ? std::sqrt(floor_nolight / double(n_nolight)) : 0.0;
 
   // --- Convergence runs ------------------------------------------------------------
-  std::vector<int> spps;
-  for (int s = 1; s <= a.max_spp; s *= 2) spps.push_back(s);
-  std::ofstream csv(out + "/measurements.csv");
+  std::ostringstream csv;
   csv << "scene,strategy,spp,seed,time_ms,rmse,rmse_nolight,relmse,relmse_nolight\n";
   json summary;
   summary["scene"] = a.scene;
@@ -258,6 +349,7 @@ int run_converge(const ConvergeArgs& a) {
         f.seed = uint32_t(seed);
         Film film(W, H);
         double t = timed_render(*backend, f, film, 0, uint32_t(spp));
+        count_nonfinite();
         auto img = film.mean();
         ErrorMetrics all = error_metrics(img, ref), nolight = error_metrics(img, ref, &mask);
         csv << a.scene << "," << strategy_name(st) << "," << spp << "," << seed << "," << t << "," << all.rmse << ","
@@ -304,7 +396,10 @@ int run_converge(const ConvergeArgs& a) {
   }
   double secs = bar.finish();
   summary["seconds"] = secs;
-  std::ofstream(out + "/summary.json") << summary.dump(2) << "\n";
+  summary["estimated_seconds"] = estimate;
+  summary["nonfinite_samples"] = nonfinite;
+  write_file_atomic(out + "/measurements.csv", csv.str());
+  write_file_atomic(out + "/summary.json", summary.dump(2) + "\n");
 
   // One line per strategy: what a person wants to know first.
   for (Strategy st : strategies) {
@@ -316,7 +411,13 @@ int run_converge(const ConvergeArgs& a) {
                  js["fit_rmse"]["ms_to_threshold"].get<double>());
   }
   std::fprintf(stderr, "wrote %s/summary.json and measurements.csv (%s)\n", out.c_str(), format_duration(secs).c_str());
-  return 0;
+  if (nonfinite > 0) {
+    std::fprintf(stderr, "warning: %s: %llu samples were NaN or infinite and left out (counted as black) over all "
+                 "renders; the outputs were written (exit status %d)\n",
+                 scene.source.c_str(), (unsigned long long)nonfinite, int(kExitNonFinite));
+    return kExitNonFinite;
+  }
+  return kExitOk;
 }
 
 }  // namespace
@@ -330,19 +431,33 @@ Command add_converge_command(CLI::App& app) {
   sub->add_option("scene", a->scene, "Built-in scene name or scene file")->required();
   sub->add_option("--out", a->out, "Output folder (default: converge-<scene>)");
   sub->add_option("--strategies", a->strategies, "Strategies to compare")->delimiter(',')->capture_default_str();
-  sub->add_option("--max-spp", a->max_spp, "Largest spp (renders at 1, 2, 4, ... up to it)")->capture_default_str();
-  sub->add_option("--seeds", a->seeds, "Independent renders per point")->capture_default_str();
-  sub->add_option("--reference-spp", a->reference_spp, "Samples per pixel of the ground truth")->capture_default_str();
+  sub->add_option("--max-spp", a->max_spp, "Largest spp (renders at 1, 2, 4, ... up to it)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 24));
+  sub->add_option("--seeds", a->seeds, "Independent renders per point")->capture_default_str()->check(CLI::Range(1, 10000));
+  sub->add_option("--reference-spp", a->reference_spp, "Samples per pixel of the ground truth")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 24));
   sub->add_option("--reference-strategy", a->reference_strategy, "Strategy of the ground truth")->capture_default_str();
   sub->add_option("--cache", a->cache, "Folder for cached ground truths (default: $XDG_CACHE_HOME/penumbra or ~/.cache/penumbra)");
-  sub->add_option("--width", a->width, "Image width (default: the scene's)");
-  sub->add_option("--height", a->height, "Image height (default: the scene's)");
-  sub->add_option("--threshold", a->threshold, "RMSE for time-to-quality")->capture_default_str();
-  sub->add_option("--crop-spp", a->crop_spp, "spp of the visual-comparison crops")->capture_default_str();
+  sub->add_option("--width", a->width, "Image width (default: the scene's)")->check(CLI::Range(1, 16384));
+  sub->add_option("--height", a->height, "Image height (default: the scene's)")->check(CLI::Range(1, 16384));
+  sub->add_option("--threshold", a->threshold, "RMSE for time-to-quality")
+      ->capture_default_str()
+      ->check(finite_number())
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--crop-spp", a->crop_spp, "spp of the visual-comparison crops")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 24));
   sub->add_option("--crop", a->crop, "Crop rectangle x,y,w,h (default: around the light)")->delimiter(',')->expected(4);
-  sub->add_option("--fit-min-spp", a->fit_min_spp, "Smallest spp used in the log-log fits")->capture_default_str();
+  sub->add_option("--fit-min-spp", a->fit_min_spp, "Smallest spp used in the log-log fits")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 24));
   sub->add_option("--backend", a->backend, "cpu, optix or auto")->capture_default_str()->check(CLI::IsMember({"cpu", "optix", "auto"}));
-  sub->add_option("--threads", a->threads, "CPU threads (default: all)");
+  sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  sub->add_flag("--yes", a->yes, "Run even when the estimated time on the CPU is more than an hour");
+  sub->add_flag("--estimate-only", a->estimate_only,
+                "Measure and print the estimated run time (JSON on stdout), render nothing else, write nothing");
   sub->add_option("--set", a->sets, "Override a scene value (repeatable), e.g. --set light.radius=0.05")->allow_extra_args(false);
   return {sub, [a]() { return run_converge(*a); }};
 }
