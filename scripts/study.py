@@ -19,6 +19,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 
 try:  # only the report needs numpy and matplotlib (--no-report runs without them)
     import numpy as np
@@ -51,6 +52,7 @@ PRESETS = {
                   radii=[0.05, 0.4], near_k=[2, 8], slat_widths=[0.08, 0.2]),
 }
 HEADLINE = ["cornell-sphere", "cornell-near", "occlusion"]
+CONFIRM_SECONDS = 3600  # past this estimate on the CPU, --yes is needed (as `penumbra converge` asks)
 THESIS_TABLE_41 = {1: (0.245, 0.082), 4: (0.128, 0.035), 16: (0.065, 0.012), 64: (0.031, 0.004)}
 THESIS_TABLE_42 = {"Cornell Box": (4.2, 4.5), "Sponza Crytek": (11.8, 12.4)}
 
@@ -59,7 +61,15 @@ def log(msg):
     print(msg, file=sys.stderr, flush=True)
 
 
-def converge(args, name, scene, cfg, sets=()):
+def format_seconds(s):
+    if s < 60:
+        return f"{s:.1f}s"
+    if s < 3600:
+        return f"{int(s) // 60}m{int(s) % 60:02d}s"
+    return f"{int(s) // 3600}h{(int(s) % 3600) // 60:02d}m"
+
+
+def converge_cmd(args, name, scene, cfg, sets=()):
     out = os.path.join(args.out, "runs", name)
     cmd = [args.penumbra, "converge", scene, "--out", out, "--backend", args.backend,
            "--width", str(cfg["width"]), "--height", str(cfg["height"]),
@@ -69,14 +79,96 @@ def converge(args, name, scene, cfg, sets=()):
         cmd += ["--cache", args.cache]
     for s in sets:
         cmd += ["--set", s]
+    return cmd
+
+
+def run(cmd, **kw):
+    """A penumbra command; its failure ends the study with penumbra's own line and exit status."""
+    r = subprocess.run(cmd, **kw)
+    if r.returncode == 130:
+        raise KeyboardInterrupt
+    if r.returncode not in (0, 4):  # 4: outputs written, some samples dropped (penumbra said where)
+        log(f"study: stopped: `{' '.join(cmd[:3])} ...` exited with status {r.returncode} (its message is above)")
+        sys.exit(r.returncode)
+    return r
+
+
+def estimate(args, plan):
+    """Asks penumbra for each run's estimated time (it measures the backend); returns (seconds, backend)."""
+    total, backend = 0.0, args.backend
+    for name, scene, cfg, sets in plan:
+        r = run(converge_cmd(args, name, scene, cfg, sets) + ["--estimate-only"], stdout=subprocess.PIPE,
+                stderr=subprocess.DEVNULL, text=True)
+        e = json.loads(r.stdout.strip().splitlines()[-1])
+        total += e["seconds"]
+        backend = e["backend"]
+    return total, backend
+
+
+def converge(args, name, scene, cfg, sets=()):
+    cmd = converge_cmd(args, name, scene, cfg, sets)
     if not args.report_only:
         log("study: " + " ".join(cmd))
-        subprocess.run(cmd, check=True)
+        run(cmd + ["--yes"])  # the study's own estimate was accepted
+    out = os.path.join(args.out, "runs", name)
     with open(os.path.join(out, "summary.json")) as f:
         summary = json.load(f)
     summary["run_dir"] = out
     summary["name"] = name
     return summary
+
+
+def write_atomic(path, write):
+    """write(tmp_path) makes the file; it replaces `path` only when complete (never a half-written report)."""
+    folder, base = os.path.split(os.path.abspath(path))
+    stem, ext = os.path.splitext(base)
+    fd, tmp = tempfile.mkstemp(prefix="." + stem + ".tmp-", suffix=ext, dir=folder)
+    os.close(fd)
+    try:
+        write(tmp)
+        with open(tmp, "rb") as f:
+            os.fsync(f.fileno())
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+
+
+def write_text(path, text):
+    def w(tmp):
+        with open(tmp, "w") as f:
+            f.write(text)
+    write_atomic(path, w)
+
+
+def committed(path):
+    """Whether git tracks files under `path` (a report folder someone committed)."""
+    here = os.path.abspath(path)
+    while not os.path.isdir(here):
+        here = os.path.dirname(here)
+    try:
+        r = subprocess.run(["git", "-C", here, "ls-files", "--", os.path.abspath(path)], capture_output=True,
+                           text=True)
+    except OSError:
+        return False
+    return r.returncode == 0 and r.stdout.strip() != ""
+
+
+def check_out(args):
+    """Before any work: --out can be written, and is not a committed report unless --force."""
+    out = os.path.abspath(args.out)
+    here = out
+    while not os.path.exists(here):
+        here = os.path.dirname(here)
+    if not os.path.isdir(here):
+        sys.exit(f"study: --out {args.out}: {here} is a file, not a folder")
+    if not os.access(here, os.W_OK | os.X_OK):
+        sys.exit(f"study: --out {args.out}: {here} is not writable")
+    if committed(out) and not args.force:
+        sys.exit(f"study: --out {args.out} holds a committed report; pass --force to overwrite it "
+                 "(or choose another folder)")
 
 
 def light_distance(center):
@@ -125,7 +217,7 @@ def plot_convergence(summary, path):
     axes[1].legend(fontsize=7)
     fig.suptitle(f"{summary['scene']} at {summary['width']}x{summary['height']}")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
 
 
@@ -154,7 +246,7 @@ def plot_crops(summary, path):
         ax.set_xticks([])
         ax.set_yticks([])
     fig.colorbar(im, ax=axes[1, 1:].tolist(), shrink=0.8, label="RMS over RGB (linear radiance)")
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight"))
     plt.close(fig)
 
 
@@ -173,7 +265,7 @@ def plot_sweep(xs, runs, xlabel, title, path, log_x=True):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
 
 
@@ -319,12 +411,11 @@ def write_report(args, preset, head, radius_runs, near_runs, slat_runs, radii, n
     sweep("Occlusion study (occlusion scene, slat width varied)", slat_runs, open_frac, "open fraction of the blinds",
           "occlusion: how much light gets through", "sweep_occlusion.png",
           [("slat width", [str(wd) for wd in widths]), ("open fraction", [f"{of:.3f}" for of in open_frac])])
-    with open(os.path.join(args.out, "README.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_text(os.path.join(args.out, "README.md"), "\n".join(lines) + "\n")
     # Every summary in one file, for plotting elsewhere.
-    with open(os.path.join(args.out, "study.json"), "w") as f:
-        json.dump({"headline": head, "radius": radius_runs, "distance": near_runs, "occlusion": slat_runs,
-                   "radii": radii, "near_k": near_k, "slat_widths": widths}, f, indent=1)
+    write_text(os.path.join(args.out, "study.json"),
+               json.dumps({"headline": head, "radius": radius_runs, "distance": near_runs, "occlusion": slat_runs,
+                           "radii": radii, "near_k": near_k, "slat_widths": widths}, indent=1))
 
 
 def check(head):
@@ -362,6 +453,8 @@ def main():
     ap.add_argument("--report-only", action="store_true",
                     help="draw the report from the runs already in --out (e.g. made on a GPU machine without matplotlib)")
     ap.add_argument("--no-report", action="store_true", help="run the experiments only (implies --keep-runs)")
+    ap.add_argument("--yes", action="store_true", help="run even when the estimate on the CPU is more than an hour")
+    ap.add_argument("--force", action="store_true", help="overwrite a report folder that is committed to git")
     args = ap.parse_args()
     if args.no_report:
         args.keep_runs = True
@@ -372,21 +465,32 @@ def main():
             "or use --no-report")
         sys.exit(77)  # CTest's skip code: a machine without them (CI installs them) skips the smoke test
     preset = PRESETS[args.preset]
-    os.makedirs(args.out, exist_ok=True)
+    check_out(args)
     scenes = HEADLINE if args.report_only or not args.scene else args.scene
-    head = [converge(args, s, s, preset["headline"]) for s in scenes] if args.only != "sweeps" else []
-    radius_runs, near_runs, slat_runs = [], [], []
+    # Every run, planned before any starts, so that the whole study is estimated first.
+    plan_head = [(s, s, preset["headline"], ()) for s in scenes] if args.only != "sweeps" else []
+    plan_sweeps = []
     if args.only != "headline":
         sw = preset["sweep"]
-        radius_runs = [converge(args, f"radius-{r}", "cornell-sphere", sw, [f"light.radius={r}"]) for r in preset["radii"]]
-        near_runs = []
+        plan_sweeps += [(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",)) for r in preset["radii"]]
         for k in preset["near_k"]:
             z = BOX[2] - k * 0.15
-            near_runs.append(converge(args, f"near-{k}", "cornell-near", sw, [f"light.center=[1.6,3.2,{z:.4f}]"]))
+            plan_sweeps.append((f"near-{k}", "cornell-near", sw, (f"light.center=[1.6,3.2,{z:.4f}]",)))
         for wd in preset["slat_widths"]:
-            slat_runs.append(converge(args, f"slats-{wd}", "occlusion", sw,
-                                      [f"meshes.slat-x.size=[{wd},0.04,{BOX[2]}]",
-                                       f"meshes.slat-z.size=[{BOX[0]},0.04,{wd}]"]))
+            plan_sweeps.append((f"slats-{wd}", "occlusion", sw, (f"meshes.slat-x.size=[{wd},0.04,{BOX[2]}]",
+                                                                 f"meshes.slat-z.size=[{BOX[0]},0.04,{wd}]")))
+    if not args.report_only:
+        log(f"study: estimating {len(plan_head) + len(plan_sweeps)} runs on --backend {args.backend} ...")
+        seconds, backend = estimate(args, plan_head + plan_sweeps)
+        log(f"study: estimated run time {format_seconds(seconds)} on the {backend} backend")
+        if backend == "cpu" and seconds > CONFIRM_SECONDS and not args.yes:
+            sys.exit(f"study: the estimated run time, {format_seconds(seconds)} on the CPU, is more than an hour: "
+                     "pass --yes to run it (or a smaller --preset)")
+    os.makedirs(args.out, exist_ok=True)
+    head = [converge(args, *p) for p in plan_head]
+    n_radii, n_near = len(preset["radii"]), len(preset["near_k"])
+    sweeps = [converge(args, *p) for p in plan_sweeps]
+    radius_runs, near_runs, slat_runs = sweeps[:n_radii], sweeps[n_radii:n_radii + n_near], sweeps[n_radii + n_near:]
     if head and radius_runs and not args.no_report:
         write_report(args, preset, head, radius_runs, near_runs, slat_runs, preset["radii"], preset["near_k"],
                      preset["slat_widths"])
@@ -402,4 +506,10 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except KeyboardInterrupt:
+        # Ctrl-C: one line, not a traceback. penumbra, in the same process group,
+        # stopped too and said so; its outputs are written atomically.
+        log("study: interrupted (Ctrl-C): stopped; runs already finished are complete")
+        sys.exit(130)
