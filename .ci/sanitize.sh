@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# CI, second part: the sanitizer build (issue 12). Debian's clang compiles the
+# project with AddressSanitizer + UndefinedBehaviorSanitizer in build-asan
+# (cmake/Sanitizers.cmake); there
+#   1. the unit tests and the executable's tests run (time-bounded), then
+#   2. each libFuzzer target of tests/fuzz runs for FUZZ_SECONDS, two at a time
+#      (one per core), from its seed corpus and regression files.
+# Any sanitizer report, crash, leak, timeout (10 s an input) or out-of-memory
+# (4 GiB) fails CI; the input that caused it is kept under build-asan/fuzz/ and
+# printed: add it to tests/fuzz/regressions/<target>/ with the fix. CI also
+# fails when all targets together ran fewer than MIN_EXECS inputs.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+FUZZ_SECONDS=${FUZZ_SECONDS:-60}
+MIN_EXECS=${MIN_EXECS:-1000000}
+TARGETS=(scene obj gltf image)
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+
+t0=$SECONDS
+# -O1 -g keeps asserts and stack traces and runs fast enough; no viewer (OpenGL
+# drivers are not built with the sanitizers), no GPU code.
+cmake -S . -B build-asan -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Debug \
+  -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" -DPENUMBRA_FUZZ=ON -DPENUMBRA_OPTIX=OFF -DPENUMBRA_VIEWER=OFF >/dev/null
+cmake --build build-asan
+t_build=$((SECONDS - t0))
+
+# 1. The tests under the sanitizers. Left out: cli_robustness_memory (it limits
+# the address space, which AddressSanitizer's shadow memory cannot live in) and
+# the viewer's window tests (not built).
+t1=$SECONDS
+ctest --test-dir build-asan --output-on-failure -j2 --timeout 900 -E 'cli_robustness_memory|viewer_xvfb'
+t_tests=$((SECONDS - t1))
+
+# 2. Fuzzing.
+t2=$SECONDS
+work=build-asan/fuzz
+rm -rf "$work"
+run_target() {
+  local t=$1 dir=$work/$1
+  mkdir -p "$dir/corpus" "$dir/artifacts"
+  local inputs=("$dir/corpus" "tests/fuzz/corpus/$t")
+  [ -d "tests/fuzz/regressions/$t" ] && inputs+=("tests/fuzz/regressions/$t")
+  local dict=()
+  [ -f "tests/fuzz/$t.dict" ] && dict=(-dict="tests/fuzz/$t.dict")
+  set +e
+  "build-asan/tests/fuzz/fuzz_$t" -max_total_time="$FUZZ_SECONDS" -timeout=10 -rss_limit_mb=4096 \
+    -print_final_stats=1 -artifact_prefix="$dir/artifacts/" "${dict[@]}" "${inputs[@]}" >"$dir/log" 2>&1
+  echo $? >"$dir/rc"
+  set -e
+}
+for ((i = 0; i < ${#TARGETS[@]}; i += 2)); do
+  run_target "${TARGETS[i]}" &
+  [ $((i + 1)) -lt ${#TARGETS[@]} ] && run_target "${TARGETS[i + 1]}" &
+  wait
+done
+total=0
+failed=0
+for t in "${TARGETS[@]}"; do
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$work/$t/log" | tail -1)
+  execs=${execs:-0}
+  total=$((total + execs))
+  rc=$(cat "$work/$t/rc")
+  echo "fuzz_$t: $execs inputs in ${FUZZ_SECONDS}s, exit status $rc"
+  if [ "$rc" -ne 0 ]; then
+    failed=1
+    echo "fuzz_$t FOUND A PROBLEM (inputs: $(ls "$work/$t/artifacts" | tr '\n' ' ')):" >&2
+    grep -E "ERROR|SUMMARY|runtime error|Test unit written" "$work/$t/log" | head -20 >&2 || true
+  fi
+done
+t_fuzz=$((SECONDS - t2))
+echo "sanitize: build ${t_build}s, tests under ASan+UBSan ${t_tests}s, fuzzing ${t_fuzz}s: $total inputs in all"
+if [ "$failed" -ne 0 ]; then
+  echo "sanitize: a fuzz target found a problem: see above and build-asan/fuzz/<target>/log" >&2
+  exit 1
+fi
+if [ "$total" -lt "$MIN_EXECS" ]; then
+  echo "sanitize: only $total fuzz inputs ran, fewer than $MIN_EXECS" >&2
+  exit 1
+fi
