@@ -98,8 +98,10 @@ void parse_camera(const Node& n, Scene& s) {
   if (n.has("fov")) s.camera.fov = n.at("fov").real(0.1, 179.0);
   Vec3 f = s.camera.target - s.camera.eye;
   if (!(length(f) > 0.f)) n.at("target").fail("must differ from camera.eye");
-  if (!(length(cross(normalize(f), s.camera.up)) > 1e-4f))
-    n.at("up").fail("must not be parallel to the viewing direction (and not zero)");
+  if (!(length(cross(normalize(f), s.camera.up)) > 1e-4f)) {
+    if (n.has("up")) n.at("up").fail("must not be parallel to the viewing direction (and not zero)");
+    n.at("target").fail("the viewing direction is parallel to the default up [0, 1, 0]: give camera.up");
+  }
 }
 
 void parse_render(const Node& n, Scene& s) {
