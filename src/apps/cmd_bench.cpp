@@ -360,6 +360,7 @@ int run_bench(const BenchArgs& a) {
         o["device_used_before_mib"] = mib(s.device_used_before);
         o["device_used_after_mib"] = mib(s.device_used_after);
         o["device_used_delta_mib"] = mib(s.device_used_after) - mib(s.device_used_before);
+        o["estimated_mib"] = mib(s.estimated_bytes);  // checked against free memory before building
       }
       sb.push_back(o);
     }

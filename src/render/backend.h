@@ -70,6 +70,7 @@ struct SceneBuildStats {
   uint64_t texture_bytes = 0;  // texel storage of the textures (CUDA arrays)
   uint64_t device_used_before = 0;  // cudaMemGetInfo total - free, device-wide: before the scene was built
   uint64_t device_used_after = 0;   // ... and after (pipeline, accelerations, scene, textures)
+  uint64_t estimated_bytes = 0;     // the estimate checked against free memory before building (GPU)
 };
 
 class Backend {
