@@ -26,6 +26,7 @@
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
 
+#include "apps/exit_status.h"
 #include "apps/viewer/camera_control.h"
 #include "apps/viewer/camera_path.h"
 #include "apps/viewer/gl_display.h"
@@ -201,6 +202,7 @@ class Viewer {
   size_t next_action_ = 0;
   bool quit_ = false;
   std::vector<std::string> pending_window_shots_;
+  uint64_t nonfinite_ = 0;  // samples left out by the backend, over the session
 };
 
 Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
@@ -473,6 +475,13 @@ double Viewer::render_samples() {
     auto ts = Clock::now();
     sides_[i].image->add_samples(n[i]);
     sides_[i].seconds += ms_since(ts) * 1e-3;
+    // Samples that were NaN or infinite: left out by the backend; said once, and in the exit status.
+    const RenderStats st = backend_->last_render_stats();
+    if (st.nonfinite > 0 && nonfinite_ == 0) {
+      std::fprintf(stderr, "warning: %s: %s\n", scene_->source.c_str(), describe_nonfinite(st).c_str());
+      status_ = describe_nonfinite(st);
+    }
+    nonfinite_ += st.nonfinite;
   }
   return ms_since(t0);
 }
@@ -901,7 +910,12 @@ int Viewer::run() {
                  render, display, total / n - render - display, display_path_name(display_path_.path),
                  backend_->name().c_str());
   }
-  return 0;
+  if (nonfinite_ > 0) {
+    std::fprintf(stderr, "warning: %s: %llu samples were NaN or infinite and left out over the session (exit status %d)\n",
+                 scene_->source.c_str(), (unsigned long long)nonfinite_, int(kExitNonFinite));
+    return kExitNonFinite;
+  }
+  return kExitOk;
 }
 
 }  // namespace

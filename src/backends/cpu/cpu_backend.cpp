@@ -86,7 +86,8 @@ void alpha_filter(const RTCFilterFunctionNArguments* args) {
 
 class CpuBackend final : public Backend {
  public:
-  CpuBackend(const Scene& scene, int threads) : scene_(scene), host_(make_host_view(scene)), view_(host_->view) {
+  // The scene must outlive the backend: its arrays are traced in place.
+  CpuBackend(const Scene& scene, int threads) : host_(make_host_view(scene)), view_(host_->view) {
     filter_.view = &view_;
     filter_.instance_of_geom = &instance_of_geom_;
     threads_ = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -278,7 +279,6 @@ class CpuBackend final : public Backend {
   RenderStats last_render_stats() const override { return stats_; }
 
  private:
-  const Scene& scene_;
   std::unique_ptr<HostSceneView> host_;
   SceneView view_;
   FilterData filter_;
