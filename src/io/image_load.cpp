@@ -69,24 +69,39 @@ size_t repair_float_texels(std::vector<uint8_t>& texels) {
 // else stb rejects by itself.
 bool hdr_decoder_ends(const uint8_t* data, size_t size) {
   size_t pos = 0;
+  auto at_eof = [&]() { return pos >= size; };
   auto get8 = [&]() -> unsigned { return pos < size ? data[pos++] : 0u; };
-  auto token = [&]() {  // one header line (stbi__hdr_gettoken: up to '\n' or the end)
-    std::string t;
-    while (pos < size && data[pos] != '\n') t += char(data[pos++]);
-    if (pos < size) ++pos;
-    return t;
+  // stbi__hdr_gettoken, to the letter: a line of at most 1023 characters (the
+  // rest of a longer one skipped), the last byte of the file never part of it,
+  // and read as a C string (up to the first NUL: a line of NULs ends the header).
+  auto token = [&]() {
+    char buf[1024];
+    int len = 0;
+    char c = char(get8());
+    while (!at_eof() && c != '\n') {
+      buf[len++] = c;
+      if (len == 1023) {
+        while (!at_eof() && get8() != '\n') {
+        }
+        break;
+      }
+      c = char(get8());
+    }
+    buf[len] = 0;
+    return std::string(buf);
   };
   const std::string magic = token();
   if (magic != "#?RADIANCE" && magic != "#?RGBE") return true;
-  while (pos < size && !token().empty()) {
-  }
+  bool valid = false;
+  for (std::string t; !(t = token()).empty();) valid = valid || t == "FORMAT=32-bit_rle_rgbe";
+  if (!valid) return true;
   const std::string res = token();
   if (res.compare(0, 3, "-Y ") != 0) return true;
   char* end = nullptr;
-  const long height = std::strtol(res.c_str() + 3, &end, 10);
+  const long height = int(std::strtol(res.c_str() + 3, &end, 10));  // stb keeps an int
   while (*end == ' ') ++end;
   if (std::strncmp(end, "+X ", 3) != 0) return true;
-  const long width = std::strtol(end + 3, nullptr, 10);
+  const long width = int(std::strtol(end + 3, nullptr, 10));
   if (width < 8 || width >= 32768 || height <= 0) return true;  // flat scanlines: no runs
   for (long y = 0; y < height; ++y) {
     const unsigned c1 = get8(), c2 = get8(), hi = get8();
