@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <stdexcept>
 
 #include <stb/stb_image_write.h>
@@ -52,7 +53,10 @@ namespace {
 
 // tinyexr's SaveEXR, into memory: float32 RGB planes in the B, G, R order most
 // readers expect, ZIP-compressed (uncompressed below 16x16, as SaveEXR does).
-std::vector<uint8_t> encode_exr(const std::string& path, int width, int height, const std::vector<float>& rgb) {
+// `use` gets tinyexr's buffer, freed after it returns (a large image is not
+// copied once more).
+void with_exr(const std::string& path, int width, int height, const std::vector<float>& rgb,
+              const std::function<void(const uint8_t*, size_t)>& use) {
   const size_t n = size_t(width) * size_t(height);
   std::vector<float> planes[3];
   for (int c = 0; c < 3; ++c) {
@@ -86,31 +90,36 @@ std::vector<uint8_t> encode_exr(const std::string& path, int width, int height, 
     if (mem) free(mem);
     throw std::runtime_error(path + ": cannot encode EXR: " + msg);
   }
-  std::vector<uint8_t> out(mem, mem + size);
-  free(mem);
-  return out;
+  for (auto& p : planes) std::vector<float>().swap(p);  // not needed while the bytes are used
+  struct Free {
+    unsigned char* m;
+    ~Free() { free(m); }
+  } owned{mem};
+  use(mem, size);
+}
+
+std::vector<uint8_t> png_of(const std::string& path, int width, int height, const std::vector<float>& rgb,
+                            float exposure_stops) {
+  const float scale = std::exp2(exposure_stops);
+  std::vector<unsigned char> px(rgb.size());
+  for (size_t i = 0; i < rgb.size(); ++i) px[i] = to_srgb8(rgb[i] * scale);
+  return encode_png(path, width, height, 3, px.data());
 }
 
 }  // namespace
 
-std::vector<uint8_t> encode_image(const std::string& path, int width, int height, const std::vector<float>& rgb,
-                                  float exposure_stops) {
-  std::string ext = extension(path);
-  if (rgb.size() != size_t(width) * height * 3) throw std::logic_error("encode_image: buffer size mismatch");
-  if (ext == "exr") return encode_exr(path, width, height, rgb);
-  if (ext == "png") {
-    float scale = std::exp2(exposure_stops);
-    std::vector<unsigned char> px(rgb.size());
-    for (size_t i = 0; i < rgb.size(); ++i) px[i] = to_srgb8(rgb[i] * scale);
-    return encode_png(path, width, height, 3, px.data());
-  }
-  throw std::runtime_error(path + ": unknown image format '." + ext + "' (use .exr or .png)");
-}
-
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb,
                  float exposure_stops) {
-  std::vector<uint8_t> bytes = encode_image(path, width, height, rgb, exposure_stops);
-  write_file_atomic(path, bytes.data(), bytes.size());
+  const std::string ext = extension(path);
+  if (rgb.size() != size_t(width) * height * 3) throw std::logic_error("write_image: buffer size mismatch");
+  if (ext == "exr") {
+    with_exr(path, width, height, rgb, [&](const uint8_t* bytes, size_t size) { write_file_atomic(path, bytes, size); });
+  } else if (ext == "png") {
+    const std::vector<uint8_t> bytes = png_of(path, width, height, rgb, exposure_stops);
+    write_file_atomic(path, bytes.data(), bytes.size());
+  } else {
+    throw std::runtime_error(path + ": unknown image format '." + ext + "' (use .exr or .png)");
+  }
 }
 
 std::vector<float> read_exr(const std::string& path, int* width, int* height) {

@@ -16,10 +16,6 @@ namespace pn {
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb,
                  float exposure_stops = 0.f);
 
-// The bytes write_image writes (the format from the path's extension).
-std::vector<uint8_t> encode_image(const std::string& path, int width, int height, const std::vector<float>& rgb,
-                                  float exposure_stops = 0.f);
-
 // A PNG of 8-bit pixels (channels 1..4, rows top first); `path` names it in errors.
 std::vector<uint8_t> encode_png(const std::string& path, int width, int height, int channels, const uint8_t* pixels);
 

@@ -90,10 +90,12 @@ uint64_t available_memory(std::string* limit) {
 uint64_t film_bytes(int width, int height) { return uint64_t(width) * uint64_t(height) * 6 * sizeof(double); }
 
 uint64_t image_write_bytes(int width, int height) {
-  // The float image (12 bytes a pixel), and its encoding: EXR copies it into
-  // planes and compresses them (up to 24 more), PNG makes 8-bit pixels and a
-  // compressed stream (up to 6 more).
-  return uint64_t(width) * uint64_t(height) * (12 + 24);
+  // The float image (12 bytes a pixel) and its encoding: EXR copies it into
+  // planes (12) and tinyexr holds the compressed data twice while it
+  // assembles the file (up to 2 x 12); PNG makes 8-bit pixels (3) and grows a
+  // compressed stream (under 12). Measured: 5.6 GiB peak for a 1-spp 8192^2
+  // EXR render, whose film and write this puts at 6.0 GiB.
+  return uint64_t(width) * uint64_t(height) * (12 + 36);
 }
 
 uint64_t cpu_backend_bytes(const Scene& scene) {
