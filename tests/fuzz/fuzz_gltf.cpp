@@ -5,18 +5,12 @@
 #include <cstring>
 #include <string>
 
-#include "scene/model_io.h"
 #include "fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (pn::fuzz::escapes(data, size)) return 0;
   const bool glb = size >= 4 && std::memcmp(data, "glTF", 4) == 0;
   const std::string path = pn::fuzz::scratch_file(glb ? "m.glb" : "m.gltf", data, size);
-  pn::Scene s;
-  s.materials.emplace_back();
-  try {
-    pn::load_model(s, path, "fuzz");
-  } catch (const pn::SceneError&) {
-  }
+  pn::fuzz::load_model_file(path);
   return 0;
 }

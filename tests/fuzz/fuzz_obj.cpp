@@ -3,7 +3,6 @@
 #include <cstdint>
 #include <string>
 
-#include "scene/model_io.h"
 #include "fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -17,11 +16,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
   pn::fuzz::scratch_file("m.mtl", data + size - mtl_size, mtl_size);
   const std::string path = pn::fuzz::scratch_file("m.obj", data, obj_size);
-  pn::Scene s;
-  s.materials.emplace_back();
-  try {
-    pn::load_model(s, path, "fuzz");
-  } catch (const pn::SceneError&) {
-  }
+  pn::fuzz::load_model_file(path);
   return 0;
 }

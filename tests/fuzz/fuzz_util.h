@@ -10,6 +10,8 @@
 #include <string>
 #include <string_view>
 
+#include "scene/model_io.h"
+
 namespace pn::fuzz {
 
 // A folder of this process, made once (in /dev/shm when there is one: faster).
@@ -41,6 +43,17 @@ inline bool escapes(const uint8_t* data, size_t size) {
   for (std::string_view bad : {"..", "/dev", "/proc", "/sys", "~"})
     if (s.find(bad) != std::string_view::npos) return true;
   return false;
+}
+
+// Loads a model file into an empty scene, as a scene's "models" entry does; a
+// SceneError (one line) is a correct answer to a bad file.
+inline void load_model_file(const std::string& path) {
+  pn::Scene s;
+  s.materials.emplace_back();  // material 0, as parse_scene makes it
+  try {
+    pn::load_model(s, path, "fuzz");
+  } catch (const pn::SceneError&) {
+  }
 }
 
 }  // namespace pn::fuzz
