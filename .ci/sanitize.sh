@@ -3,7 +3,7 @@
 # project with AddressSanitizer + UndefinedBehaviorSanitizer in build-asan
 # (cmake/Sanitizers.cmake); there
 #   1. the unit tests and the executable's tests run (time-bounded), then
-#   2. each libFuzzer target of tests/fuzz runs for FUZZ_SECONDS, two at a time
+#   2. each libFuzzer target of tests/fuzz runs for FUZZ_SECONDS (75), two at a time
 #      (one per core), from its seed corpus and regression files.
 # Any sanitizer report, crash, leak, timeout (10 s an input) or out-of-memory
 # (4 GiB) fails CI; the input that caused it is kept under build-asan/fuzz/ and
@@ -11,7 +11,7 @@
 # fails when all targets together ran fewer than MIN_EXECS inputs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-FUZZ_SECONDS=${FUZZ_SECONDS:-60}
+FUZZ_SECONDS=${FUZZ_SECONDS:-75}
 MIN_EXECS=${MIN_EXECS:-1000000}
 TARGETS=(scene obj gltf image)
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1}
