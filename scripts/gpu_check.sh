@@ -169,7 +169,8 @@ PY
 }
 for strategy in area solid-angle bsdf; do
   "$penumbra" render "$data/closed_box.json" --backend optix --strategy "$strategy" --exposure 20 \
-    -o "$out/closed_box_$strategy.png" >"$out/closed_box_$strategy.log" 2>&1 && all_black_png "$out/closed_box_$strategy.png"
+    -o "$out/closed_box_$strategy.png" >"$out/closed_box_$strategy.log" 2>&1 &&
+    all_black_png "$out/closed_box_$strategy.png"
   record "closed box, $strategy: optix sees exactly 0" $?
 done
 # b) An overflowing sky: the image is written, the dropped samples are counted

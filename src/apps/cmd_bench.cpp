@@ -374,7 +374,8 @@ int run_bench(const BenchArgs& a) {
     std::fprintf(stderr, "wrote %s\n", a.json_path.c_str());
   }
   if (nonfinite > 0) {
-    std::fprintf(stderr, "warning: %llu samples were NaN or infinite and left out (counted as black) (exit status %d)\n",
+    std::fprintf(stderr,
+                 "warning: %llu samples were NaN or infinite and left out (counted as black) (exit status %d)\n",
                  (unsigned long long)nonfinite, int(kExitNonFinite));
     return kExitNonFinite;
   }

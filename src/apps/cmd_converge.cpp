@@ -434,7 +434,9 @@ Command add_converge_command(CLI::App& app) {
   sub->add_option("--max-spp", a->max_spp, "Largest spp (renders at 1, 2, 4, ... up to it)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1 << 24));
-  sub->add_option("--seeds", a->seeds, "Independent renders per point")->capture_default_str()->check(CLI::Range(1, 10000));
+  sub->add_option("--seeds", a->seeds, "Independent renders per point")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000));
   sub->add_option("--reference-spp", a->reference_spp, "Samples per pixel of the ground truth")
       ->capture_default_str()
       ->check(CLI::Range(1, 1 << 24));

@@ -58,7 +58,9 @@ int main(int argc, char** argv) {
     for (const auto& c : commands)
       if (c.sub->parsed()) return c.run();
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "penumbra: error: out of memory: an allocation failed that the estimates made before it did not foresee\n");
+    std::fprintf(stderr,
+                 "penumbra: error: out of memory: an allocation failed that the estimates made before it did not "
+                 "foresee\n");
     return pn::kExitError;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "penumbra: error: %s\n", e.what());

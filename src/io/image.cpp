@@ -113,7 +113,8 @@ void write_image(const std::string& path, int width, int height, const std::vect
   const std::string ext = extension(path);
   if (rgb.size() != size_t(width) * height * 3) throw std::logic_error("write_image: buffer size mismatch");
   if (ext == "exr") {
-    with_exr(path, width, height, rgb, [&](const uint8_t* bytes, size_t size) { write_file_atomic(path, bytes, size); });
+    with_exr(path, width, height, rgb,
+             [&](const uint8_t* bytes, size_t size) { write_file_atomic(path, bytes, size); });
   } else if (ext == "png") {
     const std::vector<uint8_t> bytes = png_of(path, width, height, rgb, exposure_stops);
     write_file_atomic(path, bytes.data(), bytes.size());

@@ -208,7 +208,8 @@ bool decode_exr(const uint8_t* data, size_t size, DecodedImage* out, std::string
   const EXRImage& img = exr.image;
   if (img.width != int(w) || img.height != int(ht)) return fail("inconsistent size");
   auto sample = [&](unsigned char* const* planes, int c, size_t i) -> float {
-    if (h.requested_pixel_types[c] == TINYEXR_PIXELTYPE_UINT) return float(reinterpret_cast<const uint32_t*>(planes[c])[i]);
+    if (h.requested_pixel_types[c] == TINYEXR_PIXELTYPE_UINT)
+      return float(reinterpret_cast<const uint32_t*>(planes[c])[i]);
     return reinterpret_cast<const float*>(planes[c])[i];
   };
   out->width = int(w);

@@ -100,7 +100,8 @@ uint64_t image_write_bytes(int width, int height) {
 
 uint64_t cpu_backend_bytes(const Scene& scene) {
   uint64_t bytes = 0;
-  for (const TriangleMesh& m : scene.meshes) bytes += 160 * uint64_t(m.indices.size()) + 16 * uint64_t(m.positions.size());
+  for (const TriangleMesh& m : scene.meshes)
+    bytes += 160 * uint64_t(m.indices.size()) + 16 * uint64_t(m.positions.size());
   bytes += 512 * uint64_t(scene.instances.size()) + 64 * uint64_t(scene.spheres.size());
   return bytes;
 }

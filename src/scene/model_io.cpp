@@ -718,7 +718,8 @@ struct GltfLoader {
         if (parent[size_t(r)] >= 0)
           ctx.fail("'" + ctx.path + "': scene " + std::to_string(si) + " lists node " + std::to_string(r) +
                    " as a root, but it is a child of node " + std::to_string(parent[size_t(r)]));
-        if (listed[size_t(r)]) ctx.fail("'" + ctx.path + "': scene " + std::to_string(si) + " lists node " + std::to_string(r) + " twice");
+        if (listed[size_t(r)])
+          ctx.fail("'" + ctx.path + "': scene " + std::to_string(si) + " lists node " + std::to_string(r) + " twice");
         listed[size_t(r)] = true;
       }
     } else {  // no scene: every node that is nobody's child

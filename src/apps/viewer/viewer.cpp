@@ -911,7 +911,8 @@ int Viewer::run() {
                  backend_->name().c_str());
   }
   if (nonfinite_ > 0) {
-    std::fprintf(stderr, "warning: %s: %llu samples were NaN or infinite and left out over the session (exit status %d)\n",
+    std::fprintf(stderr,
+                 "warning: %s: %llu samples were NaN or infinite and left out over the session (exit status %d)\n",
                  scene_->source.c_str(), (unsigned long long)nonfinite_, int(kExitNonFinite));
     return kExitNonFinite;
   }

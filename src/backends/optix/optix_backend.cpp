@@ -229,8 +229,10 @@ DeviceEstimate estimate_device_memory(const Scene& scene) {
     if (!used[m]) continue;
     const TriangleMesh& mesh = scene.meshes[m];
     const uint64_t tris = mesh.indices.size(), verts = mesh.positions.size();
-    e.geometry += verts * (sizeof(Vec3) + (mesh.normals.empty() ? 0 : sizeof(Vec3)) + (mesh.uvs.empty() ? 0 : sizeof(Vec2))) +
-                  tris * (3 * sizeof(uint32_t) + 2 * sizeof(uint32_t) + 1);
+    const uint64_t per_vertex =
+        sizeof(Vec3) + (mesh.normals.empty() ? 0 : sizeof(Vec3)) + (mesh.uvs.empty() ? 0 : sizeof(Vec2));
+    // indices, face materials and face lights, one SBT index byte
+    e.geometry += verts * per_vertex + tris * (3 * sizeof(uint32_t) + 2 * sizeof(uint32_t) + 1);
     e.accels += 64 * tris;
     largest = std::max(largest, tris);
   }
