@@ -21,9 +21,11 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
 t0=$SECONDS
 # -O1 -g keeps asserts and stack traces and runs fast enough; no viewer (OpenGL
-# drivers are not built with the sanitizers), no GPU code.
+# drivers are not built with the sanitizers), no GPU code, no Python module (an
+# instrumented extension cannot load into an uninstrumented interpreter).
 cmake -S . -B build-asan -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Debug \
-  -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" -DPENUMBRA_FUZZ=ON -DPENUMBRA_OPTIX=OFF -DPENUMBRA_VIEWER=OFF >/dev/null
+  -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" -DPENUMBRA_FUZZ=ON -DPENUMBRA_OPTIX=OFF -DPENUMBRA_VIEWER=OFF \
+  -DPENUMBRA_PYTHON=OFF >/dev/null
 cmake --build build-asan
 t_build=$((SECONDS - t0))
 
