@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <string>
 #include <stdexcept>
 
 #include "backends/cpu/cpu_backend.h"
@@ -113,6 +114,24 @@ TEST(MultiBackend, ProgressCountsEveryDeviceAndCanStopThemAll) {
   // ... and it renders again afterwards.
   multi->render(f, film, 6, 2);
   EXPECT_EQ(film.samples(), 8u);
+}
+
+// Samples that are NaN or infinite (a sky that overflows floats): counted and
+// located on every device, as one device counts them.
+TEST(MultiBackend, CountsNonFiniteSamplesOfEveryDevice) {
+  const Scene s = load_scene(std::string(PENUMBRA_TEST_DATA) + "/overflow_env_scene.json");
+  const FrameSpec f = frame_spec(s);
+  const uint32_t spp = uint32_t(s.render.spp);
+  Film one(s.render.width, s.render.height), three(s.render.width, s.render.height);
+  auto cpu = make_cpu_backend(s, 1);
+  cpu->render(f, one, 0, spp);
+  auto multi = cpu_devices(s, 3);
+  multi->render(f, three, 0, spp);
+  const RenderStats a = cpu->last_render_stats(), b = multi->last_render_stats();
+  EXPECT_GT(a.nonfinite, 0u);
+  EXPECT_EQ(b.nonfinite, a.nonfinite);
+  EXPECT_EQ(b.nonfinite_pixels, a.nonfinite_pixels);
+  EXPECT_TRUE(same_bytes(three.mean(), one.mean()));
 }
 
 TEST(MultiBackend, NamesItsDevices) {

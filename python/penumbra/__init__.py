@@ -15,7 +15,7 @@ import inspect
 import json
 import os
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, NamedTuple, Optional, Sequence, Tuple, Union
 
 from ._errors import BackendError, PenumbraError, SceneError
 
@@ -29,8 +29,8 @@ from ._penumbra import Image  # noqa: E402
 
 __all__ = [
     "BackendError", "ConvergeResult", "Image", "PenumbraError", "Renderer", "Scene", "SceneError", "build_info",
-    "compare", "converge", "converge_plan", "load_scene", "read_exr", "render", "render_reference_chunk", "scenes",
-    "store_reference",
+    "compare", "converge", "converge_plan", "load_scene", "read_exr", "ReferenceChunk", "render",
+    "render_reference_chunk", "scenes", "store_reference",
 ]
 
 ProgressFn = Callable[[int, int], None]
@@ -348,7 +348,8 @@ def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str]
              overrides: Optional[Mapping[str, Any]] = None, backend: str = "auto", gpus: GpusLike = "all",
              threads: Optional[int] = None, cache: Optional[str] = None, out: Optional[str] = None,
              threshold: float = 0.05, crop_spp: int = 32, crop: Optional[Sequence[int]] = None, fit_min_spp: int = 4,
-             verbose: bool = False, progress: Optional[ProgressFn] = None) -> ConvergeResult:
+             verbose: bool = False, yes: bool = False, estimate_only: bool = False,
+             progress: Optional[ProgressFn] = None) -> ConvergeResult:
     """One convergence experiment, as ``penumbra converge`` runs it: a ground truth
     (cached under ``cache``, default ~/.cache/penumbra; rendered in chunks of
     ``reference_chunk`` spp added in order), then 1, 2, 4, ... max_spp
@@ -359,6 +360,11 @@ def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str]
 
     ``scene`` is a built-in scene's name or a scene file; ``overrides`` as in
     load_scene; ``gpus`` as in render(). The other arguments are the CLI's options of the same names.
+
+    Before rendering, the run time is estimated from a measured render; on the
+    CPU, an estimate over an hour raises ValueError unless ``yes``. With
+    ``estimate_only``, nothing is rendered or written: ``summary`` holds
+    ``estimated_seconds``, ``backend``, ``device`` and ``reference_cached``.
     """
     options = {k: v for k, v in locals().items() if k not in ("scene", "progress")}
     rows, summary = _penumbra.converge(_converge_options(scene, options), progress)
@@ -395,6 +401,8 @@ def _converge_options(scene: Union[str, "os.PathLike[str]"], options: Mapping[st
     o.threshold = float(a["threshold"])
     o.crop = list(a["crop"] or [])
     o.verbose = bool(a["verbose"])
+    o.yes = bool(a["yes"])
+    o.estimate_only = bool(a["estimate_only"])
     return o
 
 
@@ -407,19 +415,29 @@ def converge_plan(scene: Union[str, "os.PathLike[str]"], **options: Any) -> Dict
     return _penumbra.converge_plan(_converge_options(scene, options))
 
 
+class ReferenceChunk(NamedTuple):
+    """One chunk of a ground truth (render_reference_chunk)."""
+
+    sum: Any      # float64 (H, W, 3): the per-pixel sums of the samples' radiance
+    sum_sq: Any   # float64 (H, W, 3): ... and of its squares
+    samples: int  # samples per pixel in the chunk
+    nonfinite: int  # samples that were NaN or infinite (left out of the sums)
+
+
 def render_reference_chunk(scene: Union[str, "os.PathLike[str]"], index: int, *,
-                           progress: Optional[ProgressFn] = None, **options: Any) -> Tuple[Any, Any, int]:
+                           progress: Optional[ProgressFn] = None, **options: Any) -> ReferenceChunk:
     """Chunk ``index`` of the ground truth that converge(scene, **options) uses
-    (samples [index * chunk_spp, ...) of every pixel, see converge_plan()):
-    ``(sum, sum_sq, samples)``, the per-pixel sums of the samples' radiance and of
-    its squares as float64 arrays (H, W, 3), and how many samples per pixel.
+    (samples [index * chunk_spp, ...) of every pixel, see converge_plan()): a
+    ReferenceChunk of the per-pixel sums of the samples' radiance and of its
+    squares (float64 arrays (H, W, 3)), the samples per pixel and how many
+    samples were NaN or infinite.
 
     Chunks may be rendered anywhere (e.g. as tasks on a cluster); their sums
     added in chunk order (``sum = s0 + s1 + ...`` in float64, as numpy adds them)
     are, to the bit, the sums converge() accumulates: store_reference() turns
     them into its cached ground truth."""
-    s, s2, n = _penumbra.render_reference_chunk(_converge_options(scene, options), int(index), progress)
-    return s, s2, int(n)
+    s, s2, n, bad = _penumbra.render_reference_chunk(_converge_options(scene, options), int(index), progress)
+    return ReferenceChunk(s, s2, int(n), int(bad))
 
 
 def store_reference(scene: Union[str, "os.PathLike[str]"], sums: Any, sums_sq: Any, **options: Any) -> str:

@@ -444,7 +444,9 @@ them without a copy to the host.)")
       .def_rw("threads", &ConvergeOptions::threads)
       .def_rw("threshold", &ConvergeOptions::threshold)
       .def_rw("crop", &ConvergeOptions::crop)
-      .def_rw("verbose", &ConvergeOptions::verbose);
+      .def_rw("verbose", &ConvergeOptions::verbose)
+      .def_rw("yes", &ConvergeOptions::yes)
+      .def_rw("estimate_only", &ConvergeOptions::estimate_only);
 
   m.def(
       "converge",
@@ -489,14 +491,15 @@ them without a copy to the host.)")
       "render_reference_chunk",
       [](ConvergeOptions o, int index, nb::object progress) {
         o.progress = python_progress(std::move(progress));
-        Film film = backend_call([&] { return render_reference_chunk(o, index); });
+        ReferenceChunk chunk = backend_call([&] { return render_reference_chunk(o, index); });
+        const Film& film = chunk.film;
         auto array = [&](const double* data) {
           auto* v = new std::vector<double>(data, data + film.pixel_count() * 3);
           nb::capsule owner(v, [](void* p) noexcept { delete static_cast<std::vector<double>*>(p); });
           size_t shape[3] = {size_t(film.height()), size_t(film.width()), 3};
           return SumsArray(v->data(), 3, shape, owner);
         };
-        return nb::make_tuple(array(film.sum()), array(film.sum_sq()), film.samples());
+        return nb::make_tuple(array(film.sum()), array(film.sum_sq()), film.samples(), chunk.nonfinite);
       },
       "options"_a, "index"_a, "progress"_a.none());
 

@@ -33,12 +33,12 @@ def test_chunks_merged_in_order_are_converges_ground_truth(tmp_path):
     plan = penumbra.converge_plan("cornell-near", cache=apart, **OPTIONS)["reference"]
     chunks = [penumbra.render_reference_chunk("cornell-near", k, cache=apart, **OPTIONS) for k in (2, 0, 1)]
     chunks = [chunks[1], chunks[2], chunks[0]]  # rendered in any order, added in chunk order
-    assert [n for _, _, n in chunks] == [96, 96, 58]
-    assert chunks[0][0].shape == (14, 20, 3) and chunks[0][0].dtype == np.float64
+    assert [c.samples for c in chunks] == [96, 96, 58] and [c.nonfinite for c in chunks] == [0, 0, 0]
+    assert chunks[0].sum.shape == (14, 20, 3) and chunks[0].sum.dtype == np.float64
     s, s2 = np.zeros((14, 20, 3)), np.zeros((14, 20, 3))
-    for c, c2, _ in chunks:
-        s += c
-        s2 += c2
+    for c in chunks:
+        s += c.sum
+        s2 += c.sum_sq
     assert penumbra.store_reference("cornell-near", s, s2, cache=apart, **OPTIONS) == plan["path"]
     assert penumbra.converge_plan("cornell-near", cache=apart, **OPTIONS)["reference"]["cached"]
 

@@ -3,7 +3,6 @@
 #include "render/converge.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -11,7 +10,6 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -20,6 +18,8 @@
 #include "apps/progress.h"
 #include "io/image.h"
 #include "io/npy.h"
+#include "io/output.h"
+#include "render/resources.h"
 #include "render/metrics.h"
 #include "render/technique.h"
 #include "scene/scene.h"
@@ -88,6 +88,35 @@ void write_crop(const std::string& path, const std::vector<float>& img, int W, c
   write_npy(path, c[3], c[2], 3, out.data());
 }
 
+// What a converge run costs, measured before it starts: one render call of n
+// spp takes about overhead + n * per_spp seconds (per technique).
+struct CallCost {
+  double overhead = 0, per_spp = 0;
+  double seconds(double calls, double spp) const { return calls * overhead + spp * per_spp; }
+};
+
+// Times a 1-spp and (when that was quick) an 8-spp render of the frame.
+CallCost measure_cost(Backend& b, const FrameSpec& f, int W, int H) {
+  auto timed = [&](uint32_t spp) {
+    Film film(W, H);
+    auto t0 = std::chrono::steady_clock::now();
+    b.render(f, film, 0, spp);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  timed(1);  // warm-up (first launches, caches)
+  const double one = timed(1);
+  CallCost c;
+  if (one > 0.5) {
+    c.per_spp = one;
+    return c;
+  }
+  const double eight = timed(8);
+  c.per_spp = std::max((eight - one) / 7, 0.0);
+  c.overhead = std::max(one - c.per_spp, 0.0);
+  if (c.per_spp == 0) c.per_spp = one / 8;
+  return c;
+}
+
 // Seed of every ground truth (never used by the measured renders: 1..seeds).
 constexpr uint32_t kRefSeed = 0x5EED;
 
@@ -130,15 +159,18 @@ Setup prepare(const ConvergeOptions& a) {
                                 std::to_string(H) + " image");
   check_gpus(a.gpus);
 
-  // The key covers everything that changes the expected image and its noise:
-  // the scene document after overrides (geometry, camera, resolution, depth),
-  // the reference spp and strategy. Seed kRefSeed is kept for references only.
-  // (Not the chunk size: it changes the order of double additions only.)
+  // The ground truth's cache key covers everything that changes the expected
+  // image and its noise: the scene document after overrides (geometry, camera,
+  // resolution, depth), the reference spp and technique. Seed kRefSeed is kept
+  // for references only. (Not the chunk size: it changes the order of double
+  // additions only.)
   json key_doc = s.doc;
-  key_doc["render"].erase("spp");
-  key_doc["render"].erase("strategy");
-  key_doc["render"].erase("mis");
-  key_doc["render"].erase("seed");
+  if (key_doc.contains("render") && key_doc["render"].is_object()) {
+    key_doc["render"].erase("spp");
+    key_doc["render"].erase("strategy");
+    key_doc["render"].erase("mis");
+    key_doc["render"].erase("seed");
+  }
   std::ostringstream key;
   key << std::hex
       << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(s.ref_technique));
@@ -177,18 +209,8 @@ void render_chunk(Backend& backend, const Setup& s, int k, Film& film, const Pro
   backend.render(f, film, first, std::min<uint32_t>(uint32_t(s.ref.chunk_spp), uint32_t(s.ref.spp) - first), progress);
 }
 
-// `path` written at once: a reader (another process with the same cache) sees
-// the whole file or none.
-void write_image_atomically(const std::string& path, int W, int H, const std::vector<float>& v) {
-  static std::atomic<unsigned> counter{0};
-  const std::string tmp = path + ".tmp-" + std::to_string(std::random_device{}()) + "-" +
-                          std::to_string(counter++) + ".exr";
-  write_image(tmp, W, H, v);
-  fs::rename(tmp, path);
-}
-
-// The reference's files from the sums of all its samples; the mean last: a
-// reference exists when its mean does.
+// The reference's files from the sums of all its samples (each written
+// atomically; the mean last: a reference exists when its mean does).
 void write_reference(const ReferencePlan& r, const Film& film, std::vector<float>* mean, std::vector<float>* var) {
   if (film.width() != r.width || film.height() != r.height || film.samples() != uint64_t(r.spp))
     throw std::invalid_argument("converge: the reference's sums must be " + std::to_string(r.width) + "x" +
@@ -198,8 +220,8 @@ void write_reference(const ReferencePlan& r, const Film& film, std::vector<float
   fs::create_directories(fs::path(r.path).parent_path());
   *mean = film.mean();
   *var = film.variance_of_mean();
-  write_image_atomically(r.var_path, r.width, r.height, *var);
-  write_image_atomically(r.path, r.width, r.height, *mean);
+  write_image(r.var_path, r.width, r.height, *var);
+  write_image(r.path, r.width, r.height, *mean);
 }
 
 }  // namespace
@@ -215,35 +237,50 @@ ConvergePlan plan_converge(const ConvergeOptions& options) {
   return p;
 }
 
-Film render_reference_chunk(const ConvergeOptions& options, int index) {
+ReferenceChunk render_reference_chunk(const ConvergeOptions& options, int index) {
   Setup s = prepare(options);
   std::string note;
   std::unique_ptr<Backend> backend = backend_for(options, s.scene, &note);
   if (options.verbose) std::fprintf(stderr, "%s\n", note.c_str());
-  Film film;
-  render_chunk(*backend, s, index, film, options.progress);
-  return film;
+  ReferenceChunk c;
+  render_chunk(*backend, s, index, c.film, options.progress);
+  c.nonfinite = backend->last_render_stats().nonfinite;
+  return c;
 }
 
 void store_reference(const ConvergeOptions& options, const Film& film) {
   Setup s = prepare(options);
+  check_output_folder(options.cache.empty() ? default_cache_dir() : options.cache, "--cache");
   std::vector<float> mean, var;
   write_reference(s.ref, film, &mean, &var);
 }
 
 ConvergeResult run_converge(const ConvergeOptions& a) {
+  // Outputs first: a folder that cannot be written is found before any work.
+  const std::string& out = a.out;  // "": write no files but the cached reference
+  const std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
+  if (!a.estimate_only) {
+    if (!out.empty()) check_output_folder(out, "--out");
+    check_output_folder(cache, "--cache");
+  }
   Setup setup = prepare(a);
   const Scene& scene = setup.scene;
+  if (a.verbose)
+    for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   const int W = setup.W, H = setup.H;
   const std::vector<Technique>& techniques = setup.techniques;
   const Technique ref_technique = setup.ref_technique;
   const std::vector<int>& crop = setup.crop;
   const ReferencePlan& plan = setup.ref;
 
-  const std::string& out = a.out;  // "": write no files but the cached reference
-  if (!out.empty()) fs::create_directories(out);
-  std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
-  fs::create_directories(cache);
+  // Three films (a render, the reference's and one chunk of it), four float
+  // images (reference, its variance, a render's mean, the mask's) and one image
+  // being written.
+  check_memory(scene.source + ": converge at " + std::to_string(W) + "x" + std::to_string(H),
+               {{"films", 3 * film_bytes(W, H)},
+                {"images", 4 * uint64_t(W) * uint64_t(H) * 12},
+                {"writing images", image_write_bytes(W, H)},
+                {"acceleration structures", a.backend == "optix" ? 0 : cpu_backend_bytes(scene)}});
 
   std::string note;
   std::unique_ptr<Backend> backend = backend_for(a, scene, &note);
@@ -259,14 +296,57 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     };
   };
 
-  // --- Ground truth (cached) --------------------------------------------------
-  // In chunks of plan.chunk_spp samples, each rendered from zero and added in
-  // chunk order: the sums render_reference_chunk() and store_reference() give.
   const std::string& ref_path = plan.path;
   const std::string& ref_var_path = plan.var_path;
+  const bool cached = plan.cached;
+
+  std::vector<int> spps;
+  for (int s = 1; s <= a.max_spp; s *= 2) spps.push_back(s);
+
+  // --- How long it will take -----------------------------------------------------
+  // Each technique's cost per render call, measured; then the reference (a
+  // call per chunk), the 16-spp light mask, and every technique x seed x spp.
+  double estimate = 0;
+  {
+    FrameSpec f = frame_spec(scene);
+    f.integrator.strategy = ref_technique.strategy;
+    f.integrator.mis = ref_technique.mis;
+    const CallCost ref_cost = measure_cost(*backend, f, W, H);
+    if (!cached) estimate += ref_cost.seconds(plan.chunks, a.reference_spp);
+    estimate += ref_cost.seconds(1, 16);
+    double spp_total = 0;
+    for (int s : spps) spp_total += s;
+    for (const Technique& tq : techniques) {
+      f.integrator.strategy = tq.strategy;
+      f.integrator.mis = tq.mis;
+      const bool same = tq.strategy == ref_technique.strategy && tq.mis == ref_technique.mis;
+      const CallCost c = same ? ref_cost : measure_cost(*backend, f, W, H);
+      estimate += c.seconds(double(spps.size()) * a.seeds, spp_total * a.seeds);
+    }
+  }
+  log("converge: estimated run time %s on %s (%s): reference %d spp (%s), %zu techniques x %d seeds x 1..%d spp at "
+      "%dx%d\n",
+      format_duration(estimate).c_str(), backend->name().c_str(), backend->device_name().c_str(), a.reference_spp,
+      cached ? "cached" : "to render", techniques.size(), a.seeds, spps.back(), W, H);
+  if (a.estimate_only) {
+    ConvergeResult r;
+    r.summary = {{"estimated_seconds", estimate}, {"backend", backend->name()}, {"device", backend->device_name()},
+                 {"reference_cached", cached}};
+    return r;
+  }
+  if (backend->name() == "cpu" && estimate > kConvergeConfirmSeconds && !a.yes)
+    throw std::invalid_argument("converge: the estimated run time, " + format_duration(estimate) +
+                                " on the CPU, is more than an hour: pass --yes to run it (or lower --reference-spp, "
+                                "--max-spp, --seeds or the resolution)");
+  if (!out.empty()) fs::create_directories(out);
+  fs::create_directories(cache);
+  // Samples left out (NaN or infinite): of the reference, the light mask, the measured renders.
+  uint64_t nonfinite_reference = 0, nonfinite_mask = 0, nonfinite_renders = 0;
+  auto count_nonfinite = [&](uint64_t& part) { part += backend->last_render_stats().nonfinite; };
+
+  // --- Ground truth (cached) --------------------------------------------------
   std::vector<float> ref, ref_var;
   double ref_seconds = 0;
-  bool cached = plan.cached;
   if (cached) {
     int w, h, wv, hv;
     ref = read_exr(ref_path, &w, &h);
@@ -275,11 +355,14 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
       throw std::runtime_error(ref_path + ": cached reference has the wrong size");
     log("reference: %s (cached)\n", ref_path.c_str());
   } else {
+    // In chunks of plan.chunk_spp samples, each rendered from zero and added in
+    // chunk order: the sums render_reference_chunk() and store_reference() give.
     Film film(W, H), chunk;
     ProgressBar bar("reference " + std::to_string(a.reference_spp) + " spp");
     const uint64_t total = uint64_t(W) * H * a.reference_spp;
     for (int k = 0; k < plan.chunks; ++k) {
       render_chunk(*backend, setup, k, chunk, progress_to(bar, uint64_t(W) * H * k * plan.chunk_spp, total));
+      count_nonfinite(nonfinite_reference);
       film.add(chunk);
     }
     ref_seconds = bar.finish();
@@ -299,6 +382,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     f.integrator.max_depth = 0;
     Film film(W, H);
     backend->render(f, film, 0, 16, a.progress);
+    count_nonfinite(nonfinite_mask);
     auto m = film.mean();
     for (size_t p = 0; p < mask.size(); ++p)
       if (m[3 * p] + m[3 * p + 1] + m[3 * p + 2] > 0.f) mask[p] = 0;
@@ -322,8 +406,6 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   floor_nolight = n_nolight ? std::sqrt(floor_nolight / double(n_nolight)) : 0.0;
 
   // --- Convergence runs ------------------------------------------------------------
-  std::vector<int> spps;
-  for (int s = 1; s <= a.max_spp; s *= 2) spps.push_back(s);
   ConvergeResult result;
   json& summary = result.summary;
   summary["scene"] = a.scene;
@@ -370,6 +452,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         f.seed = uint32_t(seed);
         Film film(W, H);
         double t = timed_render(*backend, f, film, 0, uint32_t(spp), a.progress);
+        count_nonfinite(nonfinite_renders);
         auto img = film.mean();
         ErrorMetrics all = error_metrics(img, ref), nolight = error_metrics(img, ref, &mask);
         result.measurements.push_back(
@@ -417,11 +500,15 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   }
   double secs = bar.finish();
   summary["seconds"] = secs;
+  summary["estimated_seconds"] = estimate;
+  summary["nonfinite_samples"] = nonfinite_reference + nonfinite_mask + nonfinite_renders;
+  summary["nonfinite_by_part"] = {
+      {"reference", nonfinite_reference}, {"mask", nonfinite_mask}, {"renders", nonfinite_renders}};
   if (!out.empty()) {
-    std::ofstream csv(out + "/measurements.csv");
-    csv << converge_csv_header();
-    for (const ConvergeMeasurement& m : result.measurements) csv << converge_csv_row(a.scene, m);
-    std::ofstream(out + "/summary.json") << summary.dump(2) << "\n";
+    std::string csv = converge_csv_header();
+    for (const ConvergeMeasurement& m : result.measurements) csv += converge_csv_row(a.scene, m);
+    write_file_atomic(out + "/measurements.csv", csv);
+    write_file_atomic(out + "/summary.json", summary.dump(2) + "\n");
   }
 
   // One line per strategy: what a person wants to know first.

@@ -39,6 +39,8 @@ struct ConvergeOptions {
   double threshold = 0.05;
   std::vector<int> crop;  // x, y, w, h; empty: around the light
   bool verbose = true;    // notes and progress bars on stderr
+  bool yes = false;            // run even when the estimate on the CPU exceeds kConvergeConfirmSeconds
+  bool estimate_only = false;  // measure and return the estimate (summary: estimated_seconds, ...), run nothing
   // Called during every render (see Backend::render); may throw to stop the
   // experiment (the Python module's Ctrl-C).
   ProgressFn progress;
@@ -50,6 +52,9 @@ struct ConvergeMeasurement {
   int spp = 0, seed = 0;
   double time_ms = 0, rmse = 0, rmse_nolight = 0, relmse = 0, relmse_nolight = 0;
 };
+
+// Past this estimated time on the CPU, run_converge() asks for `yes`.
+constexpr double kConvergeConfirmSeconds = 3600;
 
 struct ConvergeResult {
   std::vector<ConvergeMeasurement> measurements;
@@ -77,8 +82,13 @@ ConvergePlan plan_converge(const ConvergeOptions& options);
 
 // The sums of chunk `index` of the ground truth (samples from zero, one render
 // on the backend the options choose): what run_converge() adds, in chunk
-// order, when the reference is not cached.
-Film render_reference_chunk(const ConvergeOptions& options, int index);
+// order, when the reference is not cached; and how many of its samples were
+// NaN or infinite (left out; summary.json's nonfinite_by_part.reference).
+struct ReferenceChunk {
+  Film film;
+  uint64_t nonfinite = 0;
+};
+ReferenceChunk render_reference_chunk(const ConvergeOptions& options, int index);
 
 // Writes the ground truth of `film` (the sums of all its samples: the chunks
 // added in chunk order) to the cache as run_converge() does; later runs with

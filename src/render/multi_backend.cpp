@@ -149,6 +149,8 @@ void MultiBackend::render(const FrameSpec& frame, Film& film, uint32_t first_sam
   for (size_t d = 0; d < n; ++d) {
     stats_.launches.insert(stats_.launches.end(), device_stats[d].launches.begin(), device_stats[d].launches.end());
     stats_.rays += device_stats[d].rays;
+    stats_.nonfinite += device_stats[d].nonfinite;
+    for (const auto& p : device_stats[d].nonfinite_pixels) note_nonfinite_pixel(stats_, p[0], p[1], W);
   }
   stats_.devices = std::move(timing);
 }

@@ -87,7 +87,8 @@ void alpha_filter(const RTCFilterFunctionNArguments* args) {
 
 class CpuBackend final : public Backend {
  public:
-  CpuBackend(const Scene& scene, int threads) : scene_(scene), host_(make_host_view(scene)), view_(host_->view) {
+  // The scene must outlive the backend: its arrays are traced in place.
+  CpuBackend(const Scene& scene, int threads) : host_(make_host_view(scene)), view_(host_->view) {
     filter_.view = &view_;
     filter_.instance_of_geom = &instance_of_geom_;
     threads_ = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -102,6 +103,7 @@ class CpuBackend final : public Backend {
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
       const TriangleMesh& m = scene.meshes[mi];
       RTCScene ms = rtcNewScene(device_);
+      rtcSetSceneFlags(ms, RTC_SCENE_FLAG_ROBUST);  // watertight: no ray slips between two triangles of a mesh
       rtcSetSceneBuildQuality(ms, RTC_BUILD_QUALITY_HIGH);
       RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
       auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
@@ -127,6 +129,7 @@ class CpuBackend final : public Backend {
       mesh_scenes_.push_back(ms);
     }
     rtc_ = rtcNewScene(device_);
+    rtcSetSceneFlags(rtc_, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(rtc_, RTC_BUILD_QUALITY_HIGH);
     for (size_t ii = 0; ii < scene.instances.size(); ++ii) {
       const Instance& inst = scene.instances[ii];
@@ -224,8 +227,8 @@ class CpuBackend final : public Backend {
     const uint64_t total = uint64_t(W) * H * count;
     std::atomic<int> next_tile{0};
     std::atomic<uint64_t> done{0};
-    std::atomic<uint64_t> nonfinite{0};
-    std::mutex progress_mutex;
+    std::mutex progress_mutex, nonfinite_mutex;
+    stats_ = RenderStats();
     // An exception from `progress` (the Python module's Ctrl-C) stops the
     // render: no thread takes another tile, and it is rethrown here.
     std::exception_ptr stop;
@@ -237,10 +240,10 @@ class CpuBackend final : public Backend {
       for (int t; (t = next_tile.fetch_add(1)) < num_tiles;) {
         int x0 = (t % tiles_x) * kTile, y0 = (t / tiles_x) * kTile;
         int x1 = std::min(x0 + kTile, W), y1 = std::min(y0 + kTile, H);
-        uint64_t bad = 0;
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
             double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+            uint64_t bad = 0;
             for (uint32_t i = 0; i < count; ++i) {
               Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
               if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
@@ -257,8 +260,12 @@ class CpuBackend final : public Backend {
               sum[o + c] += s[c];
               sum_sq[o + c] += s2[c];
             }
+            if (bad > 0) {
+              std::lock_guard<std::mutex> lock(nonfinite_mutex);
+              stats_.nonfinite += bad;
+              note_nonfinite_pixel(stats_, x, y, W);
+            }
           }
-        nonfinite += bad;
         uint64_t d = done += uint64_t(x1 - x0) * (y1 - y0) * count;
         if (progress) {
           std::lock_guard<std::mutex> lock(progress_mutex);
@@ -279,18 +286,17 @@ class CpuBackend final : public Backend {
     for (auto& th : pool) th.join();
     if (stop) std::rethrow_exception(stop);  // the film holds part of the samples: callers discard it
     film.add_samples(count);
-    if (nonfinite.load() > 0)
-      throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite.load()) +
-                               " samples were NaN or infinite (a bug in penumbra: please report the scene)");
   }
 
+  RenderStats last_render_stats() const override { return stats_; }
+
  private:
-  const Scene& scene_;
   std::unique_ptr<HostSceneView> host_;
   SceneView view_;
   FilterData filter_;
   std::vector<int> instance_of_geom_;  // top-level geometry ID -> instance index (-1: spheres)
   int threads_ = 1;
+  RenderStats stats_;  // of the last render()
   RTCDevice device_ = nullptr;
   RTCScene rtc_ = nullptr;              // top level: instances and the sphere set
   std::vector<RTCScene> mesh_scenes_;  // one per TriangleMesh
