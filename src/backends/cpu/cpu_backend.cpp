@@ -19,6 +19,7 @@
 
 #include "core/geometry.h"
 #include "core/integrator.h"
+#include "core/restir.h"
 
 namespace pn {
 namespace {
@@ -218,53 +219,65 @@ class CpuBackend final : public Backend {
               const ProgressFn& progress) override {
     const int W = frame.camera.width, H = frame.camera.height;
     if (film.width() != W || film.height() != H) throw std::logic_error("film size differs from the camera's");
-    constexpr int kTile = 16;
-    const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
-    const int num_tiles = tiles_x * tiles_y;
+    if (restir_frame_passes(frame.integrator)) return render_restir(frame, film, first_sample, count, progress);
     const uint64_t total = uint64_t(W) * H * count;
-    std::atomic<int> next_tile{0};
     std::atomic<uint64_t> done{0};
     std::atomic<uint64_t> nonfinite{0};
-    std::mutex progress_mutex;
-    // An exception from `progress` (the Python module's Ctrl-C) stops the
-    // render: no thread takes another tile, and it is rethrown here.
-    std::exception_ptr stop;
     Tracer tracer{this};
     double* sum = film.sum();
     double* sum_sq = film.sum_sq();
+    for_each_tile(W, H, progress, [&](int x0, int y0, int x1, int y1) {
+      uint64_t bad = 0;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+          for (uint32_t i = 0; i < count; ++i) {
+            Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
+            if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
+              ++bad;
+              continue;
+            }
+            for (int c = 0; c < 3; ++c) {
+              s[c] += L[c];
+              s2[c] += double(L[c]) * L[c];
+            }
+          }
+          size_t o = (size_t(y) * W + x) * 3;
+          for (int c = 0; c < 3; ++c) {
+            sum[o + c] += s[c];
+            sum_sq[o + c] += s2[c];
+          }
+        }
+      nonfinite += bad;
+      return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0) * count, total);
+    });
+    finish(film, count, nonfinite.load());
+  }
 
+ private:
+  // Runs fn(x0, y0, x1, y1) over the W x H frame's 16x16 tiles on the thread
+  // pool. fn returns (samples done, samples total) for `progress`. An exception
+  // from `progress` (the Python module's Ctrl-C) stops the work: no thread
+  // takes another tile, and it is rethrown here (the film then holds part of
+  // the samples: callers discard it).
+  template <class Fn>
+  void for_each_tile(int W, int H, const ProgressFn& progress, Fn&& fn) {
+    constexpr int kTile = 16;
+    const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
+    const int num_tiles = tiles_x * tiles_y;
+    std::atomic<int> next_tile{0};
+    std::mutex progress_mutex;
+    std::exception_ptr stop;
     auto worker = [&]() {
       for (int t; (t = next_tile.fetch_add(1)) < num_tiles;) {
         int x0 = (t % tiles_x) * kTile, y0 = (t / tiles_x) * kTile;
         int x1 = std::min(x0 + kTile, W), y1 = std::min(y0 + kTile, H);
-        uint64_t bad = 0;
-        for (int y = y0; y < y1; ++y)
-          for (int x = x0; x < x1; ++x) {
-            double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
-            for (uint32_t i = 0; i < count; ++i) {
-              Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
-              if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
-                ++bad;
-                continue;
-              }
-              for (int c = 0; c < 3; ++c) {
-                s[c] += L[c];
-                s2[c] += double(L[c]) * L[c];
-              }
-            }
-            size_t o = (size_t(y) * W + x) * 3;
-            for (int c = 0; c < 3; ++c) {
-              sum[o + c] += s[c];
-              sum_sq[o + c] += s2[c];
-            }
-          }
-        nonfinite += bad;
-        uint64_t d = done += uint64_t(x1 - x0) * (y1 - y0) * count;
-        if (progress) {
+        const std::pair<uint64_t, uint64_t> p = fn(x0, y0, x1, y1);
+        if (progress && p.second > 0) {
           std::lock_guard<std::mutex> lock(progress_mutex);
           if (stop) return;
           try {
-            progress(d, total);
+            progress(p.first, p.second);
           } catch (...) {
             stop = std::current_exception();
             next_tile = num_tiles;
@@ -277,14 +290,74 @@ class CpuBackend final : public Backend {
     for (int i = 1; i < threads_; ++i) pool.emplace_back(worker);
     worker();
     for (auto& th : pool) th.join();
-    if (stop) std::rethrow_exception(stop);  // the film holds part of the samples: callers discard it
+    if (stop) std::rethrow_exception(stop);
+  }
+
+  void finish(Film& film, uint32_t count, uint64_t nonfinite) {
     film.add_samples(count);
-    if (nonfinite.load() > 0)
-      throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite.load()) +
+    if (nonfinite > 0)
+      throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite) +
                                " samples were NaN or infinite (a bug in penumbra: please report the scene)");
   }
 
- private:
+  // restir with spatial reuse (core/restir.h): per camera sample, the primary
+  // pass over every pixel, the spatial passes, then shading and accumulation.
+  void render_restir(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
+                     const ProgressFn& progress) {
+    const int W = frame.camera.width, H = frame.camera.height;
+    const size_t pixels = size_t(W) * H;
+    std::vector<RestirPixel> gbuffer(pixels);
+    std::vector<Reservoir> in(pixels), out(pixels);
+    const uint64_t total = uint64_t(pixels) * count;
+    std::atomic<uint64_t> nonfinite{0};
+    Tracer tracer{this};
+    double* sum = film.sum();
+    double* sum_sq = film.sum_sq();
+    const IntegratorSettings& s = frame.integrator;
+    for (uint32_t i = 0; i < count; ++i) {
+      const uint32_t sample = first_sample + i;
+      for_each_tile(W, H, nullptr, [&](int x0, int y0, int x1, int y1) {
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x) {
+            const size_t p = size_t(y) * W + x;
+            RestirPrimaryOut primary{&gbuffer[p], &in[p]};
+            gbuffer[p].L = render_sample(tracer, view_, frame.camera, s, x, y, sample, frame.seed, &primary);
+          }
+        return std::make_pair(uint64_t(0), uint64_t(0));
+      });
+      for (uint32_t pass = 0; pass < s.restir.spatial_passes; ++pass) {
+        for_each_tile(W, H, nullptr, [&](int x0, int y0, int x1, int y1) {
+          for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x)
+              out[size_t(y) * W + x] = restir_spatial_reuse(tracer, view_, s.restir, gbuffer.data(), in.data(), W, H, x,
+                                                            y, sample, frame.seed, pass);
+          return std::make_pair(uint64_t(0), uint64_t(0));
+        });
+        std::swap(in, out);
+      }
+      std::atomic<uint64_t> done{uint64_t(pixels) * i};
+      for_each_tile(W, H, progress, [&](int x0, int y0, int x1, int y1) {
+        uint64_t bad = 0;
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x) {
+            const size_t p = size_t(y) * W + x;
+            const Vec3 L = gbuffer[p].L + restir_shade(tracer, view_, s, gbuffer[p], in[p]);
+            if (!is_finite(L)) {
+              ++bad;
+              continue;
+            }
+            for (int c = 0; c < 3; ++c) {
+              sum[3 * p + c] += L[c];
+              sum_sq[3 * p + c] += double(L[c]) * L[c];
+            }
+          }
+        nonfinite += bad;
+        return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0), total);
+      });
+    }
+    finish(film, count, nonfinite.load());
+  }
+
   const Scene& scene_;
   std::unique_ptr<HostSceneView> host_;
   SceneView view_;
