@@ -392,7 +392,8 @@ test::MeanEstimator field_irradiance(const SphereField& field, const IntegratorS
       for (uint32_t k = 0; bs.pdf > 0.f && k < scene.num_lights; ++k) {
         float t;
         if (!sphere_light_distance(field.lights[k], x, bs.wi, &t, false)) continue;
-        const PrevVertex prev{LightSampleContext{x, white.frame.n}, bs.pdf};
+        const PrevVertex prev{LightSampleContext{x, white.frame.n}, bs.pdf,
+                              ris ? float(s.restir.candidates) : 1.f};
         e += kPi * field.lights[k].radiance.x * bs.weight.x * bsdf_emission_weight(scene, s, prev, k, bs.wi);
       }
     }

@@ -29,11 +29,12 @@
 // Light selection `restir` (core/restir.h) replaces the light sample of the
 // first vertex x1 by the one kept of M candidates resampled by their
 // unshadowed contribution p_hat (RIS): f L cos * w_light * W, with W the kept
-// sample's unbiased contribution weight. Its MIS weight pairs the density of
-// restir's source, P(light) p_light, with p_bsdf, as the BSDF side does: any
-// two weights that sum to 1 keep the estimator unbiased. With spatial reuse the
-// backends run x1's light as frame-level passes (render_sample with a
-// RestirPrimaryOut leaves it out and records x1 and its reservoir).
+// sample's unbiased contribution weight. Its MIS weight pairs M times the
+// density of restir's source, M P(light) p_light, with p_bsdf, as the BSDF side
+// does (restir_mis_density): any two weights that sum to 1 keep the estimator
+// unbiased. With spatial reuse the backends run x1's light as frame-level
+// passes (render_sample with a RestirPrimaryOut leaves it out and records x1
+// and its reservoir).
 #pragma once
 
 #include "camera.h"
@@ -64,6 +65,14 @@ struct IntegratorSettings {
 PN_FN LightSelection candidate_selection(const IntegratorSettings& s) {
   return s.light_selection == LightSelection::Restir ? s.restir.source : s.light_selection;
 }
+
+// The light technique's density in MIS weights: P(light) p_light per sample,
+// times the number of candidates where restir resampled M of them (as if the
+// light technique took M samples: the weights then give the BSDF sample less
+// of what resampling finds well; any pair of weights that sums to 1 for every
+// direction keeps the estimate unbiased, this one is closer to the resampled
+// density than one candidate's).
+PN_FN float restir_mis_density(float p_light, float candidates) { return p_light * candidates; }
 
 // One light sample for next-event estimation at a shading point, before its
 // shadow ray: the chosen light, the strategy's sample of it, the BSDF there.
@@ -134,7 +143,9 @@ PN_HD Vec3 shade_direct_sample(const Tracer& tracer, const IntegratorSettings& s
   // the offset can never carry it past the light's surface.
   if (!light_visible(tracer, p, bsdf.ng, ls.wi, ls.y, ls.infinite)) return Vec3(0.f);
   const float p_light = ls.pdf * d.sel.pmf;
-  const float w = s.mis == Mis::None ? 1.f : mis_weight(s.mis, p_light, bsdf_pdf<kSpecular>(bsdf, wo, ls.wi));
+  const float w = s.mis == Mis::None
+                      ? 1.f
+                      : mis_weight(s.mis, restir_mis_density(p_light, float(d.M)), bsdf_pdf<kSpecular>(bsdf, wo, ls.wi));
   const float ris = d.ris ? d.w_sum * p_light / (float(d.M) * d.p_hat) : 1.f;  // p W
   return d.f * ls.L * (dot(bsdf.frame.n, ls.wi) * w / p_light * ris);
 }
@@ -183,6 +194,7 @@ PN_HD Reservoir make_reservoir(const Tracer& tracer, const SceneView& scene, con
 struct PrevVertex {
   LightSampleContext ctx;
   float bsdf_pdf = 0.f;
+  float light_candidates = 1.f;  // M at restir's first vertex (restir_mis_density), else 1
 };
 
 // The weight of emission from light `index` found along direction w by a
@@ -192,7 +204,7 @@ PN_FN float bsdf_emission_weight(const SceneView& scene, const IntegratorSetting
                                  uint32_t index, Vec3 w) {
   const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), prev.ctx, index) *
                         light_pdf<kFeatures>(scene, s.strategy, scene.lights[index], prev.ctx, w);
-  return mis_weight(s.mis, prev.bsdf_pdf, p_light);
+  return mis_weight(s.mis, prev.bsdf_pdf, restir_mis_density(p_light, prev.light_candidates));
 }
 
 // One path sample along `ray`; returns its radiance estimate. kFeatures must
@@ -261,6 +273,7 @@ PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const Integr
     beta *= bs.weight;
     prev.ctx = LightSampleContext{hit.p, bsdf.frame.n};
     prev.bsdf_pdf = bs.pdf;
+    prev.light_candidates = restir && depth == 0 ? float(pn_max(1u, s.restir.candidates)) : 1.f;
 
     // Russian roulette.
     if (depth + 1 >= s.rr_depth) {

@@ -32,11 +32,11 @@
 // reservoirs are combined, so it cannot bias).
 //
 // The final shading's MIS weight against the BSDF sample uses, for the light
-// technique, the density of restir's SOURCE (P(light) p_light) at q, the same
-// function the BSDF side's weight uses (bsdf_emission_weight). Resampling's
-// density is intractable, but any pair of weights that sums to 1 for every
-// direction keeps the estimate unbiased (E[g(y) W] = integral of g for any g),
-// so this choice only costs optimality.
+// technique, M times the density of restir's SOURCE (M P(light) p_light) at q,
+// the same function the BSDF side's weight uses (bsdf_emission_weight,
+// restir_mis_density). Resampling's density is intractable, but any pair of
+// weights that sums to 1 for every direction keeps the estimate unbiased
+// (E[g(y) W] = integral of g for any g), so this choice only costs optimality.
 #pragma once
 
 #include "common.h"
@@ -135,7 +135,8 @@ PN_HD Vec3 restir_shade(const Tracer& tracer, const SceneView& scene, const Inte
     const LightSampleContext ctx{q.p, q.bsdf.frame.n};
     const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), ctx, r.s.light) *
                           light_pdf<kFeatures>(scene, s.strategy, scene.lights[r.s.light], ctx, t.wi);
-    w = mis_weight(s.mis, p_light, bsdf_pdf<(kFeatures & kFeatureSpecular) != 0>(q.bsdf, q.wo, t.wi));
+    w = mis_weight(s.mis, restir_mis_density(p_light, float(pn_max(1u, s.restir.candidates))),
+                   bsdf_pdf<(kFeatures & kFeatureSpecular) != 0>(q.bsdf, q.wo, t.wi));
   }
   return t.contribution * (t.G * r.W * w);
 }
