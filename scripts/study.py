@@ -671,6 +671,242 @@ def run_lab(args):
     return not (args.check and head and not lab_check(head))
 
 
+# --- Many lights (issue 14): light selection at equal time ------------------------
+#
+# Every selection method with every light-sampling strategy (MIS power) on the
+# many-light scenes, one `penumbra converge` run per method (the ground truth,
+# selected by power, is shared through the cache); the lights-count sweep of
+# many-spheres; and `penumbra bench` for cost and memory per method.
+MANY_PRESETS = {
+    "full": dict(headline=dict(width=960, height=540, reference_spp=8192, max_spp=256, seeds=2), lights=10000,
+                 sweep=dict(width=320, height=180, reference_spp=4096, max_spp=64, seeds=2),
+                 counts=[10, 100, 1000, 10000, 100000]),
+    # The issue's numbers: 10,000 lights at 1080p on the GPU.
+    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=4096, max_spp=128, seeds=2), lights=10000,
+                sweep=dict(width=480, height=270, reference_spp=4096, max_spp=64, seeds=2),
+                counts=[10, 100, 1000, 10000, 100000]),
+    # At 24x16 every lamp is smaller than a pixel, and the pixels it covers in part escape the mask of lamp
+    # pixels: the smoke runs look at the floor from below the lamps (none in view).
+    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=2), lights=500,
+                  sweep=dict(width=16, height=12, reference_spp=512, max_spp=16, seeds=2), counts=[10, 100, 1000],
+                  sets=["camera.eye=[0,0.18,-3]", "camera.target=[0,0,-2.505]", "camera.fov=30"]),
+}
+MANY_SCENES = {"many-spheres": "defaults.lights", "sponza-lanterns": None}
+# name -> scene overrides; restir is the paper's defaults (32 candidates by power, 2 spatial passes of 3 neighbours).
+MANY_SELECTIONS = {
+    "uniform": ["render.light_selection=uniform"],
+    "power": ["render.light_selection=power"],
+    "bvh": ["render.light_selection=bvh"],
+    "restir": ["render.light_selection=restir"],
+    "restir-biased": ["render.light_selection=restir", "render.restir.unbiased=false"],
+}
+MANY_STRATEGIES = ["area", "solid-angle", "projected-solid-angle"]
+MANY_SWEEP_SELECTIONS = ["power", "bvh", "restir"]
+MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-biased": "#9467bd"}
+
+
+def many_technique(strategy):
+    return f"{strategy}+power"
+
+
+def many_headline(args, cfg, out_dir):
+    """{scene: {selection: summary}} for the many-light scenes that exist here."""
+    runs = {}
+    for scene, count_key in MANY_SCENES.items():
+        sets = ([f"{count_key}={cfg['lights']}"] + cfg.get("sets", [])) if count_key else []
+        try:
+            runs[scene] = {sel: converge(args, f"{scene}-{sel}", scene, cfg["headline"], sets + extra, MANY_STRATEGIES,
+                                         ("power",), out_dir=out_dir)
+                           for sel, extra in MANY_SELECTIONS.items()}
+        except (RunFailed, FileNotFoundError) as e:
+            if scene == "many-spheres":
+                raise
+            log(f"study: leaving {scene} out: {e}")
+    return runs
+
+
+def many_sweep(args, cfg, out_dir):
+    """{selection: [summary per lights count]} on many-spheres, solid-angle with MIS power."""
+    return {sel: [converge(args, f"count-{n}-{sel}", "many-spheres", cfg["sweep"],
+                           [f"defaults.lights={n}"] + cfg.get("sets", []) + MANY_SELECTIONS[sel], ["solid-angle"],
+                           ("power",), out_dir=out_dir)
+                  for n in cfg["counts"]]
+            for sel in MANY_SWEEP_SELECTIONS}
+
+
+def many_bench(args, cfg, out_dir):
+    """`penumbra bench` per lights count: ms per launch of each method, the light BVH's build and size (CLI only)."""
+    if args.engine != "cli" or not os.path.exists(args.penumbra):
+        return []
+    out = []
+    for n in cfg["counts"]:
+        path = os.path.join(out_dir, "runs", f"bench-{n}.json")
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        cmd = [args.penumbra, "bench", "--backend", args.backend, "--scenes", "many-spheres", "--set",
+               f"defaults.lights={n}", "--selections", ",".join(["uniform", "power", "bvh", "restir"]),
+               "--strategies", "solid-angle", "--mis", "power", "--width", str(cfg["sweep"]["width"]), "--height",
+               str(cfg["sweep"]["height"]), "--launches", "5" if args.preset == "smoke" else "20", "--json", path]
+        if not args.report_only:
+            log("study: " + " ".join(cmd))
+            if subprocess.run(cmd, stdout=subprocess.DEVNULL).returncode != 0:
+                raise RunFailed(f"penumbra bench failed for {n} lights")
+        if os.path.exists(path):
+            with open(path) as f:
+                out.append(dict(lights=n, bench=json.load(f)))
+    return out
+
+
+# Many-light scenes show their lamps: pixels that see a light directly carry the
+# lamps' own (pixel-coverage) noise, alike for every method and far above the
+# rest. Errors are measured without them (converge's *_nolight metrics).
+def many_efficiency(runs, sel, strategy, base="power", key="efficiency_nolight"):
+    t = many_technique(strategy)
+    return runs[sel]["strategies"][t][key] / runs[base]["strategies"][t][key]
+
+
+def many_relmse_efficiency(summary, strategy):
+    """1 / (relMSE x time) at the largest spp, without the pixels that see a light."""
+    last = summary["strategies"][many_technique(strategy)]["points"][-1]
+    e = last["relmse_nolight"] * last["time_ms"]
+    return 1.0 / e if e > 0 else float("nan")
+
+
+def many_mean_bias(summary, strategy):
+    """(image mean - reference mean) / reference mean at the largest spp, over seeds: the bias (plus noise)."""
+    ref = summary["reference"].get("mean_nolight", 0)
+    m = summary["strategies"][many_technique(strategy)]["points"][-1].get("mean_nolight")
+    return (m - ref) / ref if ref and m is not None else float("nan")
+
+
+def plot_many_sweep(counts, sweep, value, ylabel, title, path):
+    fig, ax = plt.subplots(figsize=(5.8, 3.9))
+    for sel, runs in sweep.items():
+        ax.loglog(counts, [value(r) for r in runs], "o-", color=MANY_COLORS[sel], label=sel)
+    ax.set_xlabel("lights")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_many_report(args, cfg, head, sweep, bench, out_dir):
+    fig_dir = os.path.join(out_dir, "figures")
+    os.makedirs(fig_dir, exist_ok=True)
+    env = head["many-spheres"]["power"]
+    info = env.get("device_info", {})
+    h, sw = cfg["headline"], cfg["sweep"]
+    lines = []
+    w = lines.append
+    w("# Many lights: light selection at equal time\n")
+    w(f"Generated by `python3 scripts/study.py --preset {args.preset} --part many-lights` on "
+      f"{datetime.date.today().isoformat()}, penumbra commit `{env.get('git_commit', 'unknown')}`, backend "
+      f"**{env['backend']}** ({env['device']}" + "".join(f", {k} {v}" for k, v in info.items()) + ").\n")
+    w("## What was measured\n")
+    w(f"- Scenes: {', '.join(head)} ({cfg['lights']} lights in many-spheres) at {h['width']}x{h['height']}, max depth "
+      f"8, MIS power; ground truth {h['reference_spp']} spp selected by power (solid-angle); renders at 1, 2, ..., "
+      f"{h['max_spp']} spp, {h['seeds']} seeds.")
+    w("- Selection methods: " + ", ".join(f"`{s}`" for s in MANY_SELECTIONS) + ". `restir`: " +
+      env.get("light_selection", "") + " when run with it; see the runs' summary.json for each method's settings. "
+      "**`restir-biased` is the paper's biased combination: its error includes its bias.**")
+    w("- Time: GPU time (CUDA events) on the GPU, wall time on the CPU. **Efficiency** = 1 / (MSE x time) at the "
+      "largest spp, relative to `power` with the same strategy (> 1: better at equal time); relMSE-efficiency the "
+      "same with relMSE (pbrt's, (x - ref)^2 / (ref^2 + 0.01)). Both **without the pixels that see a lamp "
+      "directly** (their pixel-coverage noise is the same for every method and far above the rest).\n")
+    for scene, runs in head.items():
+        w(f"## {scene}: efficiency relative to `power`\n")
+        w("| selection | " + " | ".join(f"`{st}`" for st in MANY_STRATEGIES) + " | relMSE-efficiency (solid-angle) | ms/spp (solid-angle) |")
+        w("| --- |" + " ---: |" * (len(MANY_STRATEGIES) + 2))
+        for sel in MANY_SELECTIONS:
+            rel = many_relmse_efficiency(runs[sel], "solid-angle") / many_relmse_efficiency(runs["power"], "solid-angle")
+            ms = runs[sel]["strategies"][many_technique("solid-angle")]["ms_per_spp"]
+            w(f"| `{sel}` | " + " | ".join(fmt(many_efficiency(runs, sel, st)) for st in MANY_STRATEGIES) +
+              f" | {fmt(rel)} | {ms:.3f} |")
+        w("")
+        w("RMSE at the largest spp, slope of the log-log fit, and the image mean against the reference's (the "
+          "bias, within the noise of both; solid-angle; pixels that see a lamp left out):\n")
+        w("| selection | RMSE | slope | mean vs reference |")
+        w("| --- | ---: | ---: | ---: |")
+        for sel in MANY_SELECTIONS:
+            js = runs[sel]["strategies"][many_technique("solid-angle")]
+            w(f"| `{sel}` | {js['points'][-1]['rmse_nolight']:.4g} | {js['fit_rmse_nolight']['slope']:.3f} | "
+              f"{100 * many_mean_bias(runs[sel], 'solid-angle'):+.2f}% |")
+        w("")
+    if sweep:
+        counts = cfg["counts"]
+        w(f"## Lights-count sweep (many-spheres, solid-angle + power, {sw['width']}x{sw['height']})\n")
+        plot_many_sweep(counts, sweep, lambda r: r["strategies"]["solid-angle+power"]["efficiency_nolight"],
+                        "efficiency 1 / (MSE x ms)", "many-spheres: efficiency", os.path.join(fig_dir, "many_sweep_efficiency.png"))
+        plot_many_sweep(counts, sweep, lambda r: r["strategies"]["solid-angle+power"]["ms_per_spp"], "ms per spp",
+                        "many-spheres: cost", os.path.join(fig_dir, "many_sweep_cost.png"))
+        w("![efficiency](figures/many_sweep_efficiency.png) ![cost](figures/many_sweep_cost.png)\n")
+        w("| lights | " + " | ".join(f"`{s}` efficiency vs power | `{s}` ms/spp" for s in sweep) + " |")
+        w("| ---: |" + " ---: | ---: |" * len(sweep))
+        for i, n in enumerate(counts):
+            cells = []
+            for sel, runs in sweep.items():
+                e = (runs[i]["strategies"]["solid-angle+power"]["efficiency_nolight"] /
+                     sweep["power"][i]["strategies"]["solid-angle+power"]["efficiency_nolight"])
+                cells += [fmt(e), f"{runs[i]['strategies']['solid-angle+power']['ms_per_spp']:.3f}"]
+            w(f"| {n} | " + " | ".join(cells) + " |")
+        w("")
+    if bench:
+        w("## Cost and memory per method (`penumbra bench`, many-spheres)\n")
+        w("ms per launch of 1 spp (solid-angle + power); memory: the power CDF (4 bytes a light), the light BVH "
+          "(nodes and trails, also uploaded to the GPU), restir's per-pixel buffers at this resolution.\n")
+        w("| lights | uniform | power | bvh | restir | BVH build ms | BVH MiB | power CDF MiB | restir MiB |")
+        w("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        for b in bench:
+            j = b["bench"]
+            ms = {r["light_selection"].split(" ")[0]: r["ms_per_launch"]["median"] for r in j["results"]}
+            sb = j["scene_builds"][0]
+            w(f"| {b['lights']} | " + " | ".join(f"{ms.get(s, float('nan')):.3f}" for s in ["uniform", "power", "bvh", "restir"]) +
+              f" | {sb['light_bvh_build_ms']:.2f} | {sb['light_bvh_mib']:.3f} | {4 * (b['lights'] + 1) / 2**20:.3f} | "
+              f"{sb.get('restir_frame_mib', float('nan')):.2f} |")
+        w("")
+    if os.path.exists(os.path.join(out_dir, "DISCUSSION.md")):
+        w("## Discussion\n")
+        w("[DISCUSSION.md](DISCUSSION.md).\n")
+    with open(os.path.join(out_dir, "README.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    with open(os.path.join(out_dir, "many_lights.json"), "w") as f:
+        json.dump({"headline": head, "sweep": sweep, "bench": bench, "preset": cfg}, f, indent=1)
+
+
+def many_check(head, sweep):
+    """The CI smoke test's assertions: the unbiased methods converge (RMSE slopes near -1/2 against a reference
+    selected by power), and the light BVH beats power selection at equal time on many-spheres."""
+    failures = []
+    runs = head["many-spheres"]
+    for sel in [s for s in MANY_SELECTIONS if s != "restir-biased"]:
+        for st in MANY_STRATEGIES:
+            slope = runs[sel]["strategies"][many_technique(st)]["fit_rmse_nolight"]["slope"]
+            if not -0.8 <= slope <= -0.3:
+                failures.append(f"many-spheres {sel} {st}: slope {slope:.3f} outside -0.5 +- 0.3")
+    e = many_efficiency(runs, "bvh", "solid-angle")
+    if not e > 1.0:
+        failures.append(f"many-spheres: bvh does not beat power at equal time (efficiency ratio {e:.3f})")
+    for f in failures:
+        log("study: MANY-LIGHTS CHECK FAILED: " + f)
+    return not failures
+
+
+def run_many_lights(args):
+    """The many-lights part: runs, report and (with --check) its assertions. False: a check failed."""
+    cfg = MANY_PRESETS[args.preset]
+    out_dir = os.path.join(args.out, "many-lights")
+    os.makedirs(out_dir, exist_ok=True)
+    head = many_headline(args, cfg, out_dir) if args.only != "sweeps" else {}
+    sweep = many_sweep(args, cfg, out_dir) if args.only != "headline" else {}
+    bench = many_bench(args, cfg, out_dir) if args.only != "headline" else []
+    if head and not args.no_report:
+        write_many_report(args, cfg, head, sweep, bench, out_dir)
+        log(f"study: wrote {os.path.join(out_dir, 'README.md')}")
+    return not (args.check and head and not many_check(head, sweep))
+
+
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -682,9 +918,11 @@ def main():
                          "(importable: pip install ., or PYTHONPATH=build/python)")
     ap.add_argument("--backend", default="auto", choices=["auto", "cpu", "optix"])
     ap.add_argument("--cache", help="ground-truth cache folder (default: penumbra's)")
-    ap.add_argument("--part", choices=["thesis", "lab", "all"], default="all",
+    ap.add_argument("--part", choices=["thesis", "lab", "many-lights", "all"], default="all",
                     help="thesis: chapter 4 (area against solid-angle, docs/results/README.md); lab: every strategy and "
-                         "MIS mode on the lab's scenes (docs/results/lab/README.md); all: both")
+                         "MIS mode on the lab's scenes (docs/results/lab/README.md); many-lights: light selection "
+                         "methods at equal time and the lights-count sweep (docs/results/many-lights/README.md); "
+                         "all: the three")
     ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
     ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES)),
                     help="run only this headline scene (repeatable): split a long study over several GPU calls, "
@@ -713,7 +951,9 @@ def main():
     ok = True
     if args.part in ("lab", "all"):
         ok = run_lab(args) and ok
-    if args.part == "lab":
+    if args.part in ("many-lights", "all"):
+        ok = run_many_lights(args) and ok
+    if args.part in ("lab", "many-lights"):
         sys.exit(0 if ok else 1)
     scenes = HEADLINE if args.report_only or not args.scene else [s for s in args.scene if s in HEADLINE]
     head = [converge(args, s, s, preset["headline"]) for s in scenes] if args.only != "sweeps" else []

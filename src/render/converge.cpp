@@ -130,12 +130,12 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   // The key covers everything that changes the expected image and its noise:
   // the scene document after overrides (geometry, camera, resolution, depth),
   // the reference spp and strategy. Seed 0x5EED is kept for references only.
+  // References select lights by power whatever the runs do (an unbiased
+  // method, and the same reference for every method compared).
   const uint32_t kRefSeed = 0x5EED;
   json key_doc = doc;
-  key_doc["render"].erase("spp");
-  key_doc["render"].erase("strategy");
-  key_doc["render"].erase("mis");
-  key_doc["render"].erase("seed");
+  if (key_doc.contains("render") && key_doc["render"].is_object())
+    for (const char* k : {"spp", "strategy", "mis", "seed", "light_selection", "restir"}) key_doc["render"].erase(k);
   std::ostringstream key;
   key << std::hex << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(ref_technique));
   std::string ref_path = cache + "/ref-" + key.str() + ".exr";
@@ -154,6 +154,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     FrameSpec f = frame_spec(scene);
     f.integrator.strategy = ref_technique.strategy;
     f.integrator.mis = ref_technique.mis;
+    f.integrator.light_selection = LightSelection::Power;
     f.seed = kRefSeed;
     Film film(W, H);
     ProgressBar bar("reference " + std::to_string(a.reference_spp) + " spp");
@@ -217,7 +218,22 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   summary["height"] = H;
   summary["max_depth"] = scene.render.max_depth;
   summary["overrides"] = a.sets;
-  summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)}, {"file", ref_path},
+  // Image means, over all pixels and over those that see no light (the bias of
+  // a method shows in them, within the noise of both).
+  auto image_mean = [&](const std::vector<float>& img, bool nolight) {
+    double m = 0;
+    size_t n = 0;
+    for (size_t p = 0; p < mask.size(); ++p)
+      if (!nolight || mask[p]) {
+        m += double(img[3 * p]) + img[3 * p + 1] + img[3 * p + 2];
+        n += 3;
+      }
+    return n ? m / double(n) : 0.0;
+  };
+  summary["light_selection"] = light_selection_label(scene.render.light_selection, scene.render.restir);
+  summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)},
+                          {"light_selection", "power"}, {"mean", image_mean(ref, false)},
+                          {"mean_nolight", image_mean(ref, true)}, {"file", ref_path},
                           {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed},
                           {"rmse_floor", floor_all}, {"rmse_floor_nolight", floor_nolight}};
   summary["git_commit"] = PENUMBRA_GIT_COMMIT;  // of the binary that made the runs
@@ -249,7 +265,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     json points = json::array();
     double ms_per_spp = 0;
     for (int spp : spps) {
-      double rm = 0, rmn = 0, rel = 0, reln = 0, ms = 0;
+      double rm = 0, rmn = 0, rel = 0, reln = 0, ms = 0, mean = 0, mean_nolight = 0;
       for (int seed = 1; seed <= a.seeds; ++seed) {
         f.seed = uint32_t(seed);
         Film film(W, H);
@@ -258,6 +274,8 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         ErrorMetrics all = error_metrics(img, ref), nolight = error_metrics(img, ref, &mask);
         result.measurements.push_back(
             {name, spp, seed, t, all.rmse, nolight.rmse, all.relmse, nolight.relmse});
+        mean += image_mean(img, false) / a.seeds;
+        mean_nolight += image_mean(img, true) / a.seeds;
         rm += all.rmse / a.seeds;
         rmn += nolight.rmse / a.seeds;
         rel += all.relmse / a.seeds;
@@ -271,7 +289,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         }
       }
       points.push_back({{"spp", spp}, {"rmse", rm}, {"rmse_nolight", rmn}, {"relmse", rel}, {"relmse_nolight", reln},
-                        {"time_ms", ms}});
+                        {"time_ms", ms}, {"mean", mean}, {"mean_nolight", mean_nolight}});
       if (spp >= a.fit_min_spp) {
         lx.push_back(std::log(double(spp)));
         ly.push_back(std::log(rm));
