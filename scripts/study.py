@@ -605,6 +605,13 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
         json.dump({"headline": head, "sweeps": sweeps, "preset": lab}, f, indent=1)
 
 
+def checks_passed(what, failures):
+    """Logs each failure as 'study: <what> FAILED: ...'; True when there is none."""
+    for f in failures:
+        log(f"study: {what} FAILED: " + f)
+    return not failures
+
+
 def lab_check(head):
     """The CI smoke test's assertions on the lab: -1/2 slopes for the light-sampling
     techniques, and spherical polygons beating area on polygon-near."""
@@ -624,9 +631,7 @@ def lab_check(head):
     for r in pn:
         if not lab_efficiency(r, "solid-angle") > 1.0:
             failures.append(f"polygon-near: solid-angle does not beat area (efficiency {lab_efficiency(r, 'solid-angle'):.3f})")
-    for f in failures:
-        log("study: LAB CHECK FAILED: " + f)
-    return not failures
+    return checks_passed("LAB CHECK", failures)
 
 
 def check(head):
@@ -642,9 +647,7 @@ def check(head):
     for near, key in [(r, k) for r in head if r["scene"] == "cornell-near" for k in ("fit_rmse", "fit_rmse_nolight")]:
         if not speedup(near, key) > 1.0:
             failures.append(f"cornell-near: solid-angle does not beat area ({key} speed-up {speedup(near, key):.3f})")
-    for f in failures:
-        log("study: CHECK FAILED: " + f)
-    return not failures
+    return checks_passed("CHECK", failures)
 
 
 def run_lab(args):
@@ -888,9 +891,7 @@ def many_check(head, sweep):
     e = many_efficiency(runs, "bvh", "solid-angle")
     if not e > 1.0:
         failures.append(f"many-spheres: bvh does not beat power at equal time (efficiency ratio {e:.3f})")
-    for f in failures:
-        log("study: MANY-LIGHTS CHECK FAILED: " + f)
-    return not failures
+    return checks_passed("MANY-LIGHTS CHECK", failures)
 
 
 def run_many_lights(args):

@@ -100,6 +100,23 @@ struct LightEdit {
   }
 };
 
+// A combo box over one of the registries' enums, listed by their names.
+template <class E>
+void enum_combo(const char* label, E* value, int count, const char* (*name)(E)) {
+  struct Names {
+    const char* (*name)(E);
+  } names{name};
+  int i = int(*value);
+  if (ImGui::Combo(
+          label, &i,
+          [](void* data, int k, const char** out) {
+            *out = static_cast<Names*>(data)->name(E(k));
+            return true;
+          },
+          &names, count))
+    *value = E(i);
+}
+
 std::string num(float v) { return shortest_number(v).dump(); }
 std::string vec(Vec3 v) { return "[" + num(v.x) + "," + num(v.y) + "," + num(v.z) + "]"; }
 
@@ -691,33 +708,13 @@ void Viewer::draw_panel() {
   };
   ImGui::Separator();
   if (!split_) strategy_combo("strategy", &strategy_);
-  {
-    int m = int(mis_);
-    if (ImGui::Combo(
-            "MIS", &m,
-            [](void*, int k, const char** out) {
-              *out = mis_name(Mis(k));
-              return true;
-            },
-            nullptr, kNumMisModes))
-      mis_ = Mis(m);
-  }
-  {
-    // How the light of each sample is chosen (restir with the scene's
-    // render.restir settings; spatial reuse, no temporal reuse yet).
-    int m = int(selection_);
-    if (ImGui::Combo(
-            "light selection", &m,
-            [](void*, int k, const char** out) {
-              *out = light_selection_name(LightSelection(k));
-              return true;
-            },
-            nullptr, kNumLightSelections))
-      selection_ = LightSelection(m);
-    if (selection_ == LightSelection::Restir)
-      ImGui::TextDisabled("%s", light_selection_label(selection_, scene_->render.restir).c_str());
-    ImGui::TextDisabled("%zu lights", scene_->lights.size());
-  }
+  enum_combo("MIS", &mis_, kNumMisModes, mis_name);
+  // How the light of each sample is chosen (restir with the scene's
+  // render.restir settings; spatial reuse, no temporal reuse yet).
+  enum_combo("light selection", &selection_, kNumLightSelections, light_selection_name);
+  if (selection_ == LightSelection::Restir)
+    ImGui::TextDisabled("%s", light_selection_label(selection_, scene_->render.restir).c_str());
+  ImGui::TextDisabled("%zu lights", scene_->lights.size());
   ImGui::SliderInt("spp / frame", &spp_per_frame_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
   ImGui::SliderInt("max depth", &max_depth_, 0, 32);
   ImGui::SliderFloat("exposure", &exposure_, -8.f, 8.f, "%+.1f stops");

@@ -151,26 +151,33 @@ PN_STRATEGIES(PN_X)
 #undef PN_RAYGEN
 
 // restir's spatial reuse and shading passes (core/restir.h), one thread per
-// pixel of a W x H launch, every scene feature compiled in.
+// pixel of a W x H launch, every scene feature compiled in. The launch index
+// as a pixel: false outside the image.
+__forceinline__ __device__ bool launch_pixel(int* x, int* y, uint32_t* pixel) {
+  const uint3 idx = optixGetLaunchIndex();
+  *x = int(idx.x);
+  *y = int(idx.y);
+  *pixel = idx.y * uint32_t(P().camera.width) + idx.x;
+  return *x < P().camera.width && *y < P().camera.height;
+}
+
 extern "C" __global__ void __raygen__restir_spatial() {
   const LaunchParams& p = P();
-  const uint3 idx = optixGetLaunchIndex();
-  const int W = p.camera.width, H = p.camera.height;
-  if (int(idx.x) >= W || int(idx.y) >= H) return;
-  const uint32_t pixel = idx.y * uint32_t(W) + idx.x;
+  int x, y;
+  uint32_t pixel;
+  if (!launch_pixel(&x, &y, &pixel)) return;
   Tracer tracer;
   p.restir_out[pixel] = restir_spatial_reuse<kAllFeatures>(tracer, p.scene, p.integrator.restir, p.restir_pixels,
-                                                           p.restir_in, W, H, int(idx.x), int(idx.y), p.first_sample,
-                                                           p.seed, p.restir_pass);
+                                                           p.restir_in, p.camera.width, p.camera.height, x, y,
+                                                           p.first_sample, p.seed, p.restir_pass);
   p.sum[pixel].w += float(tracer.rays);
 }
 
 extern "C" __global__ void __raygen__restir_shade() {
   const LaunchParams& p = P();
-  const uint3 idx = optixGetLaunchIndex();
-  const int W = p.camera.width, H = p.camera.height;
-  if (int(idx.x) >= W || int(idx.y) >= H) return;
-  const uint32_t pixel = idx.y * uint32_t(W) + idx.x;
+  int x, y;
+  uint32_t pixel;
+  if (!launch_pixel(&x, &y, &pixel)) return;
   Tracer tracer;
   const RestirPixel& q = p.restir_pixels[pixel];
   const Vec3 L = q.L + restir_shade<kAllFeatures>(tracer, p.scene, p.integrator, q, p.restir_in[pixel]);
