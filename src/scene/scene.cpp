@@ -708,6 +708,15 @@ void parse_frame_settings(const json& doc, const std::string& source, CameraDesc
   *render = s.render;
 }
 
+namespace {
+// Whether parts[0..i] names a block of the scene format whose every key is
+// optional (render, render.restir): an override may create it.
+bool is_optional_block(const std::vector<std::string>& parts, size_t i) {
+  if (i == 0) return parts[0] == "render";
+  return i == 1 && parts[0] == "render" && parts[1] == "restir";
+}
+}  // namespace
+
 void apply_override(json& doc, const std::string& assignment, const std::string& source) {
   auto eq = assignment.find('=');
   auto fail = [&](const std::string& msg) -> void {
@@ -735,10 +744,12 @@ void apply_override(json& doc, const std::string& assignment, const std::string&
       if (idx >= cur->size()) fail("index " + p + " is out of range (size " + std::to_string(cur->size()) + ")");
       cur = &(*cur)[idx];
     } else if (cur->is_object()) {
-      // A missing object on the way is created (render.restir.candidates on a
-      // scene without a restir block); a misspelt key is then an unknown key
-      // that validation rejects, naming it.
-      if (!last && !cur->contains(p)) (*cur)[p] = json::object();
+      // Blocks whose every key is optional are created when missing
+      // (render.restir.candidates on a scene without a restir block).
+      if (!last && !cur->contains(p)) {
+        if (!is_optional_block(parts, i)) fail("no field '" + p + "' to descend into");
+        (*cur)[p] = json::object();
+      }
       if (last && cur->contains("radiance") && p == "power") cur->erase("radiance");
       if (last && cur->contains("power") && p == "radiance") cur->erase("power");
       cur = &(*cur)[p];
