@@ -275,10 +275,12 @@ Scene scene_with_lights(int count, bool environment) {
   nlohmann::json doc = {
       {"camera", {{"eye", {0, 2, -6}}, {"target", {0, 0, 0}}}},
       {"materials", {{"floor", {{"albedo", 0.5}}}}},
-      {"shapes", {{{"type", "quad"}, {"corner", {-4, 0, -4}}, {"edge1", {0, 0, 8}}, {"edge2", {8, 0, 0}}, {"material", "floor"}}}},
+      {"shapes",
+       {{{"type", "quad"}, {"corner", {-4, 0, -4}}, {"edge1", {0, 0, 8}}, {"edge2", {8, 0, 0}}, {"material", "floor"}}}},
       {"lights", {{{"type", "scatter"}, {"count", count}, {"seed", 3}, {"min", {-3, 0.3, -3}}, {"max", {3, 2, 3}},
                    {"radius", {0.05, 0.2}}, {"power", 100}, {"power_spread", 50}},
-                  {{"type", "quad"}, {"corner", {-1, 3, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 0, 2}}, {"radiance", 2}}}}};
+                  {{"type", "quad"}, {"corner", {-1, 3, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 0, 2}},
+                   {"radiance", 2}}}}};
   if (environment) {
     namespace fs = std::filesystem;
     const fs::path dir = fs::temp_directory_path() / "penumbra-test-selection";

@@ -136,11 +136,14 @@ TEST(Render, UniformAndPowerSelectionAgree) {
 // camera below the slab looking down (so that no pixel sees a lamp itself:
 // their noise would drown the comparison), at two bounces.
 json lamp_field(int lamps) {
-  json shapes = {{{"type", "quad"}, {"corner", {-6, 0, -6}}, {"edge1", {0, 0, 12}}, {"edge2", {6, 0, 0}}, {"material", "matte"}},
-                 {{"type", "quad"}, {"corner", {0, 0, -6}}, {"edge1", {0, 0, 12}}, {"edge2", {6, 0, 0}}, {"material", "glossy"}},
-                 {{"type", "box"}, {"center", {-0.8, 0.6, 1.5}}, {"size", {0.3, 1.2, 0.3}}, {"material", "matte"}},
-                 {{"type", "box"}, {"center", {0.9, 0.6, 1.1}}, {"size", {0.3, 1.2, 0.3}}, {"material", "matte"}},
-                 {{"type", "box"}, {"center", {0.2, 0.4, 2.4}}, {"size", {2.0, 0.8, 0.2}}, {"rotate_y", 20}, {"material", "matte"}}};
+  auto quad = [](json corner, const char* material) {
+    return json{{"type", "quad"}, {"corner", corner}, {"edge1", {0, 0, 12}}, {"edge2", {6, 0, 0}}, {"material", material}};
+  };
+  auto box = [](json center, json size, float rotate_y) {
+    return json{{"type", "box"}, {"center", center}, {"size", size}, {"rotate_y", rotate_y}, {"material", "matte"}};
+  };
+  json shapes = {quad({-6, 0, -6}, "matte"), quad({0, 0, -6}, "glossy"), box({-0.8, 0.6, 1.5}, {0.3, 1.2, 0.3}, 0),
+                 box({0.9, 0.6, 1.1}, {0.3, 1.2, 0.3}, 0), box({0.2, 0.4, 2.4}, {2.0, 0.8, 0.2}, 20)};
   return {{"camera", {{"eye", {0, 1.2, -0.5}}, {"target", {0, 0, 1.6}}, {"fov", 45}}},
           {"render", {{"width", 24}, {"height", 16}, {"spp", 512}, {"max_depth", 2}, {"strategy", "solid-angle"}}},
           {"materials", {{"matte", {{"albedo", 0.6}}},

@@ -447,7 +447,8 @@ void parse_scatter(const Node& n, Scene& s, uint32_t material) {
   bool line = false;
   if (n.has("layout")) {
     const std::string layout = n.at("layout").string();
-    if (layout != "random" && layout != "line") n.at("layout").fail("unknown layout '" + layout + "' (expected random or line)");
+    if (layout != "random" && layout != "line")
+      n.at("layout").fail("unknown layout '" + layout + "' (expected random or line)");
     line = layout == "line";
   }
   float r0, r1;

@@ -76,8 +76,8 @@ struct ImageSettings {
 
   bool operator==(const ImageSettings& o) const {
     return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && selection == o.selection &&
-           max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left && right == o.right &&
-           equal_time == o.equal_time && scene_overrides == o.scene_overrides;
+           max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
+           right == o.right && equal_time == o.equal_time && scene_overrides == o.scene_overrides;
   }
 };
 
