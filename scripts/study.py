@@ -880,7 +880,8 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
 
 def many_check(head, sweep):
     """The CI smoke test's assertions: the unbiased methods converge (RMSE slopes near -1/2 against a reference
-    selected by power), and the light BVH beats power selection at equal time on many-spheres."""
+    selected by power), and the light BVH beats power selection per sample on many-spheres (MSE at equal spp, which
+    the fixed seeds make deterministic; equal time is reported, not asserted: CI machines' timings are noisy)."""
     failures = []
     runs = head["many-spheres"]
     for sel in [s for s in MANY_SELECTIONS if s != "restir-biased"]:
@@ -888,9 +889,11 @@ def many_check(head, sweep):
             slope = runs[sel]["strategies"][many_technique(st)]["fit_rmse_nolight"]["slope"]
             if not -0.8 <= slope <= -0.3:
                 failures.append(f"many-spheres {sel} {st}: slope {slope:.3f} outside -0.5 +- 0.3")
-    e = many_efficiency(runs, "bvh", "solid-angle")
-    if not e > 1.0:
-        failures.append(f"many-spheres: bvh does not beat power at equal time (efficiency ratio {e:.3f})")
+    mse = {sel: runs[sel]["strategies"][many_technique("solid-angle")]["points"][-1]["rmse_nolight"] ** 2
+           for sel in ("power", "bvh")}
+    if not mse["bvh"] < 0.6 * mse["power"]:
+        failures.append(f"many-spheres: bvh's MSE at equal spp is not below 0.6x power's ({mse['bvh']:.4g} vs "
+                        f"{mse['power']:.4g})")
     return checks_passed("MANY-LIGHTS CHECK", failures)
 
 
