@@ -30,7 +30,11 @@
 #   4. compute-sanitizer --tool memcheck on short OptiX renders with
 #      projected-solid-angle and MIS (cornell-sphere, polygon-near and the
 #      real-scene checks that exist), and with bvh and restir on many-spheres:
-#      0 errors.
+#      0 errors;
+#   5. bad input on the GPU (tests/data): a camera inside a closed box sees
+#      exactly 0 with every strategy; an overflowing sky is written with its
+#      dropped samples counted (exit 4); the device-memory estimate checked
+#      before building is not below what the scenes take.
 # Prints PASS/FAIL per step and a summary; exits 0 only if everything passed.
 #
 # Environment: GPU_CHECK_OUT (output folder, default BUILD_DIR/gpu_check),
@@ -205,6 +209,67 @@ if command -v compute-sanitizer >/dev/null 2>&1; then
 else
   record "compute-sanitizer memcheck: compute-sanitizer not found" 1
 fi
+
+# 5. Bad input on the GPU (issue 12), on the files of tests/data.
+echo "== bad input on the GPU"
+data=$root/tests/data
+# a) A camera inside a closed box, a light and a white sky outside: every pixel
+#    exactly 0 (watertight triangles, hit points off the edges). Written as PNG
+#    at +20 stops, so that anything above 1e-6 is a non-zero byte; the first
+#    non-zero pixel in scan order has zero neighbours, so a PNG row filter
+#    cannot hide it: all-zero filtered bytes mean an all-zero image.
+all_black_png() {
+  python3 - "$1" <<'PY'
+import struct, sys, zlib
+d = open(sys.argv[1], "rb").read()
+pos, idat, w = 8, b"", 0
+while pos < len(d):
+    n, kind = struct.unpack(">I4s", d[pos:pos + 8])
+    if kind == b"IHDR":
+        w = struct.unpack(">I", d[pos + 8:pos + 12])[0]
+    elif kind == b"IDAT":
+        idat += d[pos + 8:pos + 8 + n]
+    pos += 12 + n
+raw = zlib.decompress(idat)
+stride = 1 + 3 * w
+lit = sum(1 for i, b in enumerate(raw) if i % stride != 0 and b != 0)
+print(f"{sys.argv[1]}: {lit} non-zero bytes")
+sys.exit(1 if lit else 0)
+PY
+}
+for strategy in area solid-angle bsdf; do
+  "$penumbra" render "$data/closed_box.json" --backend optix --strategy "$strategy" --exposure 20 \
+    -o "$out/closed_box_$strategy.png" >"$out/closed_box_$strategy.log" 2>&1 &&
+    all_black_png "$out/closed_box_$strategy.png"
+  record "closed box, $strategy: optix sees exactly 0" $?
+done
+# b) An overflowing sky: the image is written, the dropped samples are counted
+#    and located, exit status 4.
+rm -f "$out/overflow.png"
+"$penumbra" render "$data/overflow_env_scene.json" --backend optix -o "$out/overflow.png" >"$out/overflow.log" 2>&1
+st=$?
+cat "$out/overflow.log" | grep "NaN or infinite" || true
+[[ $st -eq 4 && -s $out/overflow.png ]] && grep -q "at pixels (0, 0)" "$out/overflow.log"
+record "non-finite samples on optix: image written, exit 4" $?
+# c) The device-memory estimate made before building is not below what the
+#    scene then takes (bench's JSON: estimated_mib against accel + buffers + textures).
+"$penumbra" bench --backend optix --scenes "$first${present_real[*]:+,}$(IFS=,; echo "${present_real[*]}")" \
+  --launches 2 --warmup 0 --json "$out/estimate.json" >"$out/estimate.log" 2>&1
+st=$?
+if [[ $st -eq 0 ]]; then
+  python3 - "$out/estimate.json" <<'PY'
+import json, sys
+bad = 0
+for b in json.load(open(sys.argv[1]))["scene_builds"]:
+    ok = b["estimated_mib"] >= b["scene_total_mib"]
+    bad += not ok
+    print(f"  {b['scene']}: estimated {b['estimated_mib']:.1f} MiB, took {b['scene_total_mib']:.1f} MiB "
+          f"(device-wide {b['device_used_delta_mib']:.1f} MiB) {'ok' if ok else 'UNDER-ESTIMATED'}")
+sys.exit(1 if bad else 0)
+PY
+  st=$?
+fi
+record "GPU memory estimate >= what the scene takes" $st
 
 echo
 echo "== gpu_check summary ($(date -u +%Y-%m-%dT%H:%M:%SZ), outputs in $out)"

@@ -20,6 +20,8 @@ packages=(
   xvfb xauth             # viewer test: a virtual X server (xvfb-run)
   libgl1-mesa-dri        # viewer test: Mesa's software OpenGL (llvmpipe) under Xvfb
   libglx-mesa0           # viewer test: Mesa's GLX, for that OpenGL on an X server
+  clang                  # CI's sanitizer build and fuzz targets (.ci/sanitize.sh)
+  libclang-rt-14-dev     # ... their runtimes: AddressSanitizer, UndefinedBehaviorSanitizer, libFuzzer
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -20,6 +20,8 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
+from collections import namedtuple
 
 try:  # only the report needs numpy and matplotlib (--no-report runs without them)
     import numpy as np
@@ -74,6 +76,7 @@ LAB_TECHNIQUES = [st if m == "none" else f"{st}+{m}" for st in LAB_STRATEGIES[:3
 LAB_COLORS = {"area": "#d62728", "solid-angle": "#1f77b4", "projected-solid-angle": "#2ca02c", "bsdf": "#7f7f7f"}
 LAB_STYLES = {"none": "o-", "balance": "s:", "power": "^--"}
 HEADLINE = ["cornell-sphere", "cornell-near", "occlusion"]
+CONFIRM_SECONDS = 3600  # past this estimate on the CPU, --yes is needed (as `penumbra converge` asks)
 THESIS_TABLE_41 = {1: (0.245, 0.082), 4: (0.128, 0.035), 16: (0.065, 0.012), 64: (0.031, 0.004)}
 THESIS_TABLE_42 = {"Cornell Box": (4.2, 4.5), "Sponza Crytek": (11.8, 12.4)}
 
@@ -91,33 +94,124 @@ def parse_set(assignment):
         return key, text
 
 
-def converge(args, name, scene, cfg, sets=(), strategies=STRATEGIES, mis=("none",), out_dir=None):
-    out = os.path.join(out_dir or args.out, "runs", name)
-    if args.engine == "python" and not args.report_only:
-        # The same experiment in this process: penumbra.converge() is the CLI's code.
-        import penumbra
-        log(f"study: penumbra.converge({scene!r}, out={out!r}, {cfg}, overrides={list(sets)})")
-        try:
-            penumbra.converge(scene, out=out, backend=args.backend, width=cfg["width"], height=cfg["height"],
-                              reference_spp=cfg["reference_spp"], max_spp=cfg["max_spp"], seeds=cfg["seeds"],
-                              strategies=list(strategies), mis=list(mis), cache=args.cache,
-                              overrides=dict(parse_set(s) for s in sets), verbose=True)
-        except penumbra.SceneError as e:
-            raise RunFailed(str(e)) from e
-        return load_summary(out, name)
-    cmd = [args.penumbra, "converge", scene, "--out", out, "--backend", args.backend,
-           "--width", str(cfg["width"]), "--height", str(cfg["height"]),
-           "--reference-spp", str(cfg["reference_spp"]), "--max-spp", str(cfg["max_spp"]),
-           "--seeds", str(cfg["seeds"]), "--strategies", ",".join(strategies), "--mis", ",".join(mis)]
+# One `penumbra converge` run of the study. `group`: where set, the run is
+# optional and the whole group is left out when one of its runs cannot be
+# made on this machine (the glossy scene needs ../shared/scenes).
+Run = namedtuple("Run", "name scene cfg sets strategies mis out_dir group",
+                 defaults=((), tuple(STRATEGIES), ("none",), None, None))
+
+
+class RunFailed(Exception):
+    """A run failed; penumbra said why (on stderr, or in the message)."""
+
+    def __init__(self, message, status=1):
+        super().__init__(message)
+        self.status = status
+
+
+def format_seconds(s):
+    if s < 60:
+        return f"{s:.1f}s"
+    if s < 3600:
+        return f"{int(s) // 60}m{int(s) % 60:02d}s"
+    return f"{int(s) // 3600}h{(int(s) % 3600) // 60:02d}m"
+
+
+def run_dir(args, r):
+    return os.path.join(r.out_dir or args.out, "runs", r.name)
+
+
+def converge_cmd(args, r):
+    cmd = [args.penumbra, "converge", r.scene, "--out", run_dir(args, r), "--backend", args.backend,
+           "--width", str(r.cfg["width"]), "--height", str(r.cfg["height"]),
+           "--reference-spp", str(r.cfg["reference_spp"]), "--max-spp", str(r.cfg["max_spp"]),
+           "--seeds", str(r.cfg["seeds"]), "--strategies", ",".join(r.strategies), "--mis", ",".join(r.mis)]
     if args.cache:
         cmd += ["--cache", args.cache]
-    for s in sets:
+    for s in r.sets:
         cmd += ["--set", s]
+    return cmd
+
+
+def run_cmd(cmd, **kw):
+    """A penumbra command; RunFailed with its exit status when it fails (its message is on stderr)."""
+    p = subprocess.run(cmd, **kw)
+    if p.returncode == 130:
+        raise KeyboardInterrupt
+    if p.returncode not in (0, 4):  # 4: outputs written, some samples dropped (penumbra said where)
+        raise RunFailed(f"`{' '.join(cmd[:3])} ...` exited with status {p.returncode}", p.returncode)
+    return p
+
+
+def python_converge(args, r, **kw):
+    """The same experiment in this process: penumbra.converge() is the CLI's code."""
+    import penumbra
+    try:
+        return penumbra.converge(r.scene, backend=args.backend, width=r.cfg["width"], height=r.cfg["height"],
+                                 reference_spp=r.cfg["reference_spp"], max_spp=r.cfg["max_spp"], seeds=r.cfg["seeds"],
+                                 strategies=list(r.strategies), mis=list(r.mis), cache=args.cache,
+                                 overrides=dict(parse_set(s) for s in r.sets), **kw)
+    except (penumbra.PenumbraError, ValueError) as e:
+        raise RunFailed(str(e)) from e
+
+
+def estimate(args, r):
+    """penumbra's estimate of one run (it measures the backend): (seconds, backend name)."""
+    if args.engine == "python":
+        e = python_converge(args, r, estimate_only=True).summary
+    else:
+        p = subprocess.run(converge_cmd(args, r) + ["--estimate-only"], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+        if p.returncode == 130:
+            raise KeyboardInterrupt
+        if p.returncode != 0:
+            raise RunFailed(p.stderr.strip().splitlines()[-1] if p.stderr.strip() else
+                            f"penumbra converge exited with status {p.returncode}", p.returncode)
+        e = json.loads(p.stdout.strip().splitlines()[-1])
+    return e["estimated_seconds"], e["backend"]
+
+
+def plan(args, runs):
+    """Estimates every run before any starts; leaves out the optional groups that
+    cannot run here; stops when the CPU would take over an hour without --yes."""
+    log(f"study: estimating {len(runs)} runs on --backend {args.backend} ...")
+    total, backend, dropped = 0.0, args.backend, set()
+    for r in runs:
+        if r.group in dropped:
+            continue
+        try:
+            seconds, backend = estimate(args, r)
+        except RunFailed as e:
+            if r.group is None:
+                raise
+            log(f"study: leaving {r.group} out: {e}")
+            dropped.add(r.group)
+            continue
+        total += seconds
+    # Groups dropped midway contributed to the total; a slight overestimate is harmless.
+    log(f"study: estimated run time {format_seconds(total)} on the {backend} backend")
+    if backend == "cpu" and total > CONFIRM_SECONDS and not args.yes:
+        raise RunFailed(f"the estimated run time, {format_seconds(total)} on the CPU, is more than an hour: "
+                        "pass --yes to run it (or a smaller --preset)", 2)
+    return [r for r in runs if r.group not in dropped]
+
+
+def run_key(r):
+    return (r.out_dir, r.name)
+
+
+def converge(args, r):
+    """Runs one experiment (unless --report-only) and returns its summary."""
+    out = run_dir(args, r)
     if not args.report_only:
-        log("study: " + " ".join(cmd))
-        if subprocess.run(cmd).returncode != 0:
-            raise RunFailed(f"penumbra converge failed for {name} (its error is above)")
-    return load_summary(out, name)
+        if args.engine == "python":
+            log(f"study: penumbra.converge({r.scene!r}, out={out!r}, {r.cfg}, overrides={list(r.sets)})")
+            python_converge(args, r, out=out, verbose=True, yes=True)  # the study's own estimate was accepted
+        else:
+            cmd = converge_cmd(args, r)
+            log("study: " + " ".join(cmd))
+            run_cmd(cmd + ["--yes"])
+    return load_summary(out, r.name)
 
 
 def load_summary(out, name):
@@ -128,8 +222,57 @@ def load_summary(out, name):
     return summary
 
 
-class RunFailed(Exception):
-    pass
+def write_atomic(path, write):
+    """write(tmp_path) makes the file; it replaces `path` only when complete (never a half-written report)."""
+    folder, base = os.path.split(os.path.abspath(path))
+    stem, ext = os.path.splitext(base)
+    fd, tmp = tempfile.mkstemp(prefix="." + stem + ".tmp-", suffix=ext, dir=folder)
+    os.close(fd)
+    try:
+        write(tmp)
+        with open(tmp, "rb") as f:
+            os.fsync(f.fileno())
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+
+
+def write_text(path, text):
+    def w(tmp):
+        with open(tmp, "w") as f:
+            f.write(text)
+    write_atomic(path, w)
+
+
+def committed(path):
+    """Whether git tracks files under `path` (a report folder someone committed)."""
+    here = os.path.abspath(path)
+    while not os.path.isdir(here):
+        here = os.path.dirname(here)
+    try:
+        r = subprocess.run(["git", "-C", here, "ls-files", "--", os.path.abspath(path)], capture_output=True,
+                           text=True)
+    except OSError:
+        return False
+    return r.returncode == 0 and r.stdout.strip() != ""
+
+
+def check_out(args):
+    """Before any work: --out can be written, and is not a committed report unless --force."""
+    out = os.path.abspath(args.out)
+    here = out
+    while not os.path.exists(here):
+        here = os.path.dirname(here)
+    if not os.path.isdir(here):
+        sys.exit(f"study: --out {args.out}: {here} is a file, not a folder")
+    if not os.access(here, os.W_OK | os.X_OK):
+        sys.exit(f"study: --out {args.out}: {here} is not writable")
+    if committed(out) and not args.force and not args.report_only:
+        sys.exit(f"study: --out {args.out} holds a committed report; pass --force to overwrite it "
+                 "(or choose another folder)")
 
 
 def light_distance(center):
@@ -178,7 +321,7 @@ def plot_convergence(summary, path):
     axes[1].legend(fontsize=7)
     fig.suptitle(f"{summary['scene']} at {summary['width']}x{summary['height']}")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
 
 
@@ -207,7 +350,7 @@ def plot_crops(summary, path):
         ax.set_xticks([])
         ax.set_yticks([])
     fig.colorbar(im, ax=axes[1, 1:].tolist(), shrink=0.8, label="RMS over RGB (linear radiance)")
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight"))
     plt.close(fig)
 
 
@@ -224,7 +367,7 @@ def finish_ratio_plot(fig, ax, xlabel, ylabel, title, path, log_x, legend_size=8
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=legend_size)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
 
 
@@ -377,12 +520,11 @@ def write_report(args, preset, head, radius_runs, near_runs, slat_runs, radii, n
     sweep("Occlusion study (occlusion scene, slat width varied)", slat_runs, open_frac, "open fraction of the blinds",
           "occlusion: how much light gets through", "sweep_occlusion.png",
           [("slat width", [str(wd) for wd in widths]), ("open fraction", [f"{of:.3f}" for of in open_frac])])
-    with open(os.path.join(args.out, "README.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_text(os.path.join(args.out, "README.md"), "\n".join(lines) + "\n")
     # Every summary in one file, for plotting elsewhere.
-    with open(os.path.join(args.out, "study.json"), "w") as f:
-        json.dump({"headline": head, "radius": radius_runs, "distance": near_runs, "occlusion": slat_runs,
-                   "radii": radii, "near_k": near_k, "slat_widths": widths}, f, indent=1)
+    write_text(os.path.join(args.out, "study.json"),
+               json.dumps({"headline": head, "radius": radius_runs, "distance": near_runs, "occlusion": slat_runs,
+                           "radii": radii, "near_k": near_k, "slat_widths": widths}, indent=1))
 
 
 # --- The light-sampling lab ----------------------------------------------------
@@ -422,34 +564,40 @@ def lab_efficiency(summary, t, key="efficiency"):
     return summary["strategies"][t][key] / summary["strategies"]["area"][key]
 
 
-def lab_run(args, lab, out_dir):
-    """Every technique on every lab scene, then the sweeps. Scenes whose model
-    data is missing on this machine (glossy: ../shared/scenes) are left out."""
+def lab_plan(args, lab, out_dir):
+    """Every technique on every lab scene, then the sweeps: (headline runs, {sweep: runs}).
+    The glossy scene and its sweep are optional (their model data lives in ../shared/scenes)."""
     h, sw = lab["headline"], lab["sweep"]
-    head = []
     scenes = LAB_SCENES if not args.scene else [s for s in LAB_SCENES if s in args.scene]
-    if args.only != "sweeps":
-        for sc in scenes:
-            try:
-                head.append(converge(args, sc, sc, h, strategies=LAB_STRATEGIES, mis=MIS_MODES, out_dir=out_dir))
-            except (RunFailed, FileNotFoundError) as e:
-                if sc != "glossy":
-                    raise
-                log(f"study: leaving {sc} out: {e}")
+    head = [Run(sc, sc, h, (), LAB_STRATEGIES, MIS_MODES, out_dir, "glossy" if sc == "glossy" else None)
+            for sc in scenes] if args.only != "sweeps" else []
     sweeps = {}
     if args.only != "headline":
         three = LAB_STRATEGIES[:3]
-        sweeps["radius"] = [converge(args, f"radius-{r}", "cornell-sphere", sw, [f"light.radius={r}"], three, out_dir=out_dir)
+        sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",), three, out_dir=out_dir)
                             for r in lab["radii"]]
-        sweeps["distance"] = [converge(args, f"near-{k}", "cornell-near", sw, [f"light.center=[1.6,3.2,{BOX[2] - k * 0.15:.4f}]"],
-                                       three, out_dir=out_dir) for k in lab["near_k"]]
-        sweeps["panel"] = [converge(args, f"panel-{o}", "polygon-near", sw, [f"defaults.panel_z={-o}"], three,
-                                    out_dir=out_dir) for o in lab["panel_offsets"]]
-        try:
-            sweeps["roughness"] = [converge(args, f"roughness-{r}", "glossy", sw, [f"defaults.roughness={r}"],
-                                            ["solid-angle", "bsdf"], MIS_MODES, out_dir=out_dir) for r in lab["roughness"]]
-        except (RunFailed, FileNotFoundError) as e:
-            log(f"study: leaving the roughness sweep out: {e}")
+        sweeps["distance"] = [Run(f"near-{k}", "cornell-near", sw, (f"light.center=[1.6,3.2,{BOX[2] - k * 0.15:.4f}]",),
+                                  three, out_dir=out_dir) for k in lab["near_k"]]
+        sweeps["panel"] = [Run(f"panel-{o}", "polygon-near", sw, (f"defaults.panel_z={-o}",), three, out_dir=out_dir)
+                           for o in lab["panel_offsets"]]
+        sweeps["roughness"] = [Run(f"roughness-{r}", "glossy", sw, (f"defaults.roughness={r}",), ("solid-angle", "bsdf"),
+                                   MIS_MODES, out_dir, "the roughness sweep") for r in lab["roughness"]]
+    return head, sweeps
+
+
+def thesis_plan(args, preset):
+    """Chapter 4's runs: (headline runs, {sweep: runs})."""
+    scenes = HEADLINE if args.report_only or not args.scene else [s for s in args.scene if s in HEADLINE]
+    head = [Run(s, s, preset["headline"]) for s in scenes] if args.only != "sweeps" else []
+    sweeps = {}
+    if args.only != "headline":
+        sw = preset["sweep"]
+        sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",)) for r in preset["radii"]]
+        sweeps["distance"] = [Run(f"near-{k}", "cornell-near", sw, (f"light.center=[1.6,3.2,{BOX[2] - k * 0.15:.4f}]",))
+                              for k in preset["near_k"]]
+        sweeps["occlusion"] = [Run(f"slats-{wd}", "occlusion", sw, (f"meshes.slat-x.size=[{wd},0.04,{BOX[2]}]",
+                                                                    f"meshes.slat-z.size=[{BOX[0]},0.04,{wd}]"))
+                               for wd in preset["slat_widths"]]
     return head, sweeps
 
 
@@ -472,7 +620,7 @@ def plot_lab_convergence(summary, path):
     axes[1].legend(fontsize=6, ncol=2)
     fig.suptitle(f"{summary['scene']} at {summary['width']}x{summary['height']}: every technique")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
 
 
@@ -586,7 +734,7 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(os.path.join(fig_dir, "lab_sweep_roughness.png"), dpi=110)
+        write_atomic(os.path.join(fig_dir, "lab_sweep_roughness.png"), lambda tmp: fig.savefig(tmp, dpi=110))
         plt.close(fig)
         w("![roughness](figures/lab_sweep_roughness.png)\n")
         w("| roughness | " + " | ".join(f"`{t}`" for t in ts) + " | power / best single |")
@@ -599,10 +747,8 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
     if os.path.exists(os.path.join(out_dir, "DISCUSSION.md")):
         w("## Discussion\n")
         w("Which technique wins where, by how much, and why: [DISCUSSION.md](DISCUSSION.md).\n")
-    with open(os.path.join(out_dir, "README.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    with open(os.path.join(out_dir, "lab.json"), "w") as f:
-        json.dump({"headline": head, "sweeps": sweeps, "preset": lab}, f, indent=1)
+    write_text(os.path.join(out_dir, "README.md"), "\n".join(lines) + "\n")
+    write_text(os.path.join(out_dir, "lab.json"), json.dumps({"headline": head, "sweeps": sweeps, "preset": lab}, indent=1))
 
 
 def checks_passed(what, failures):
@@ -650,24 +796,25 @@ def check(head):
     return checks_passed("CHECK", failures)
 
 
-def run_lab(args):
-    """The lab part: runs, report and (with --check) its assertions. False: a check failed."""
-    lab = LAB_PRESETS[args.preset]
-    out_dir = os.path.join(args.out, "lab")
-    os.makedirs(out_dir, exist_ok=True)
+def keep(plan_, kept):
+    """A (headline, sweeps) plan less the runs `plan()` left out; a sweep loses all or nothing."""
+    head, sweeps = plan_
+    return ([r for r in head if run_key(r) in kept],
+            {k: v for k, v in sweeps.items() if all(run_key(r) in kept for r in v)})
+
+
+def run_all(args, plan_):
+    """Runs a plan (or, with --report-only, loads what an earlier run left: a missing run is left out)."""
+    head, sweeps = plan_
     if args.report_only:
-        runs = os.path.join(out_dir, "runs")
-        head = [json.load(open(os.path.join(runs, sc, "summary.json"))) | {"run_dir": os.path.join(runs, sc), "name": sc}
-                for sc in LAB_SCENES if os.path.exists(os.path.join(runs, sc, "summary.json"))]
-        sweeps = {}
-        for key, names in (("radius", [f"radius-{r}" for r in lab["radii"]]), ("distance", [f"near-{k}" for k in lab["near_k"]]),
-                           ("panel", [f"panel-{o}" for o in lab["panel_offsets"]]),
-                           ("roughness", [f"roughness-{r}" for r in lab["roughness"]])):
-            paths = [os.path.join(runs, n, "summary.json") for n in names]
-            if all(os.path.exists(p) for p in paths):
-                sweeps[key] = [json.load(open(p)) for p in paths]
-    else:
-        head, sweeps = lab_run(args, lab, out_dir)
+        have = lambda r: os.path.exists(os.path.join(run_dir(args, r), "summary.json"))  # noqa: E731
+        return ([converge(args, r) for r in head if have(r)],
+                {k: [converge(args, r) for r in v] for k, v in sweeps.items() if all(have(r) for r in v)})
+    return [converge(args, r) for r in head], {k: [converge(args, r) for r in v] for k, v in sweeps.items()}
+
+
+def finish_lab(args, lab, out_dir, head, sweeps):
+    """The lab's report and (with --check) its assertions. False: a check failed."""
     if head and not args.no_report:
         write_lab_report(args, lab, head, sweeps, out_dir)
         log(f"study: wrote {os.path.join(out_dir, 'README.md')}")
@@ -712,29 +859,33 @@ def many_technique(strategy):
     return f"{strategy}+power"
 
 
-def many_headline(args, cfg, out_dir):
-    """{scene: {selection: summary}} for the many-light scenes that exist here."""
-    runs = {}
-    for scene, count_key in MANY_SCENES.items():
-        sets = ([f"{count_key}={cfg['lights']}"] + cfg.get("sets", [])) if count_key else []
-        try:
-            runs[scene] = {sel: converge(args, f"{scene}-{sel}", scene, cfg["headline"], sets + extra, MANY_STRATEGIES,
-                                         ("power",), out_dir=out_dir)
-                           for sel, extra in MANY_SELECTIONS.items()}
-        except (RunFailed, FileNotFoundError) as e:
-            if scene == "many-spheres":
-                raise
-            log(f"study: leaving {scene} out: {e}")
-    return runs
+def many_plan(args, cfg, out_dir):
+    """(headline runs, {selection: sweep runs}): every selection method with every strategy on each many-light
+    scene (sponza-lanterns optional: its model data lives in ../shared/scenes), and the lights-count sweep of
+    many-spheres for each method of MANY_SWEEP_SELECTIONS."""
+    head, sweeps = [], {}
+    if args.only != "sweeps":
+        for scene, count_key in MANY_SCENES.items():
+            sets = (f"{count_key}={cfg['lights']}",) + tuple(cfg.get("sets", ())) if count_key else ()
+            head += [Run(f"{scene}-{sel}", scene, cfg["headline"], sets + tuple(extra), tuple(MANY_STRATEGIES),
+                         ("power",), out_dir, None if count_key else scene)
+                     for sel, extra in MANY_SELECTIONS.items()]
+    if args.only != "headline":
+        for sel in MANY_SWEEP_SELECTIONS:
+            sweeps[sel] = [Run(f"count-{n}-{sel}", "many-spheres", cfg["sweep"],
+                               (f"defaults.lights={n}",) + tuple(cfg.get("sets", ())) + tuple(MANY_SELECTIONS[sel]),
+                               ("solid-angle",), ("power",), out_dir) for n in cfg["counts"]]
+    return head, sweeps
 
 
-def many_sweep(args, cfg, out_dir):
-    """{selection: [summary per lights count]} on many-spheres, solid-angle with MIS power."""
-    return {sel: [converge(args, f"count-{n}-{sel}", "many-spheres", cfg["sweep"],
-                           [f"defaults.lights={n}"] + cfg.get("sets", []) + MANY_SELECTIONS[sel], ["solid-angle"],
-                           ("power",), out_dir=out_dir)
-                  for n in cfg["counts"]]
-            for sel in MANY_SWEEP_SELECTIONS}
+def many_group(plan_, head):
+    """The headline's summaries as {scene: {selection: summary}} (the runs that ran)."""
+    where = {r.name: (r.scene, r.name[len(r.scene) + 1:]) for r in plan_[0]}
+    out = {}
+    for summary in head:
+        scene, sel = where[summary["name"]]
+        out.setdefault(scene, {})[sel] = summary
+    return {scene: runs for scene, runs in out.items() if len(runs) == len(MANY_SELECTIONS)}
 
 
 def many_bench(args, cfg, out_dir):
@@ -751,8 +902,7 @@ def many_bench(args, cfg, out_dir):
                str(cfg["sweep"]["height"]), "--launches", "5" if args.preset == "smoke" else "20", "--json", path]
         if not args.report_only:
             log("study: " + " ".join(cmd))
-            if subprocess.run(cmd, stdout=subprocess.DEVNULL).returncode != 0:
-                raise RunFailed(f"penumbra bench failed for {n} lights")
+            run_cmd(cmd, stdout=subprocess.DEVNULL)
         if os.path.exists(path):
             with open(path) as f:
                 out.append(dict(lights=n, bench=json.load(f)))
@@ -872,10 +1022,9 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
     if os.path.exists(os.path.join(out_dir, "DISCUSSION.md")):
         w("## Discussion\n")
         w("[DISCUSSION.md](DISCUSSION.md).\n")
-    with open(os.path.join(out_dir, "README.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    with open(os.path.join(out_dir, "many_lights.json"), "w") as f:
-        json.dump({"headline": head, "sweep": sweep, "bench": bench, "preset": cfg}, f, indent=1)
+    write_text(os.path.join(out_dir, "README.md"), "\n".join(lines) + "\n")
+    write_text(os.path.join(out_dir, "many_lights.json"),
+               json.dumps({"headline": head, "sweep": sweep, "bench": bench, "preset": cfg}, indent=1))
 
 
 def many_check(head, sweep):
@@ -897,18 +1046,14 @@ def many_check(head, sweep):
     return checks_passed("MANY-LIGHTS CHECK", failures)
 
 
-def run_many_lights(args):
-    """The many-lights part: runs, report and (with --check) its assertions. False: a check failed."""
-    cfg = MANY_PRESETS[args.preset]
-    out_dir = os.path.join(args.out, "many-lights")
-    os.makedirs(out_dir, exist_ok=True)
-    head = many_headline(args, cfg, out_dir) if args.only != "sweeps" else {}
-    sweep = many_sweep(args, cfg, out_dir) if args.only != "headline" else {}
+def finish_many_lights(args, cfg, out_dir, plan_, head, sweep):
+    """The many-lights part's bench runs, report and (with --check) assertions. False: a check failed."""
+    head = many_group(plan_, head)
     bench = many_bench(args, cfg, out_dir) if args.only != "headline" else []
-    if head and not args.no_report:
+    if "many-spheres" in head and not args.no_report:
         write_many_report(args, cfg, head, sweep, bench, out_dir)
         log(f"study: wrote {os.path.join(out_dir, 'README.md')}")
-    return not (args.check and head and not many_check(head, sweep))
+    return not (args.check and "many-spheres" in head and not many_check(head, sweep))
 
 
 def main():
@@ -936,6 +1081,8 @@ def main():
     ap.add_argument("--report-only", action="store_true",
                     help="draw the report from the runs already in --out (e.g. made on a GPU machine without matplotlib)")
     ap.add_argument("--no-report", action="store_true", help="run the experiments only (implies --keep-runs)")
+    ap.add_argument("--yes", action="store_true", help="run even when the estimate on the CPU is more than an hour")
+    ap.add_argument("--force", action="store_true", help="overwrite a report folder that is committed to git")
     args = ap.parse_args()
     if args.no_report:
         args.keep_runs = True
@@ -950,44 +1097,53 @@ def main():
         log("study: numpy and matplotlib are needed for the report (python3 -m pip install numpy matplotlib), "
             "or use --no-report")
         sys.exit(77)  # CTest's skip code: a machine without them (CI installs them) skips the smoke test
-    preset = PRESETS[args.preset]
+    check_out(args)
+    preset, lab = PRESETS[args.preset], LAB_PRESETS[args.preset]
+    lab_dir, many_dir = os.path.join(args.out, "lab"), os.path.join(args.out, "many-lights")
+    many = MANY_PRESETS[args.preset]
+    # Every run, planned and estimated before any starts.
+    lab_runs = lab_plan(args, lab, lab_dir) if args.part in ("lab", "all") else ([], {})
+    thesis_runs = thesis_plan(args, preset) if args.part in ("thesis", "all") else ([], {})
+    many_runs = many_plan(args, many, many_dir) if args.part in ("many-lights", "all") else ([], {})
+    if not args.report_only:
+        every = [r for head, sweeps in (lab_runs, thesis_runs, many_runs) for r in head + sum(sweeps.values(), [])]
+        kept = {run_key(r) for r in plan(args, every)}
+        lab_runs, thesis_runs, many_runs = keep(lab_runs, kept), keep(thesis_runs, kept), keep(many_runs, kept)
     os.makedirs(args.out, exist_ok=True)
     ok = True
     if args.part in ("lab", "all"):
-        ok = run_lab(args) and ok
+        os.makedirs(lab_dir, exist_ok=True)
+        ok = finish_lab(args, lab, lab_dir, *run_all(args, lab_runs)) and ok
     if args.part in ("many-lights", "all"):
-        ok = run_many_lights(args) and ok
-    if args.part in ("lab", "many-lights"):
-        sys.exit(0 if ok else 1)
-    scenes = HEADLINE if args.report_only or not args.scene else [s for s in args.scene if s in HEADLINE]
-    head = [converge(args, s, s, preset["headline"]) for s in scenes] if args.only != "sweeps" else []
-    radius_runs, near_runs, slat_runs = [], [], []
-    if args.only != "headline":
-        sw = preset["sweep"]
-        radius_runs = [converge(args, f"radius-{r}", "cornell-sphere", sw, [f"light.radius={r}"]) for r in preset["radii"]]
-        near_runs = []
-        for k in preset["near_k"]:
-            z = BOX[2] - k * 0.15
-            near_runs.append(converge(args, f"near-{k}", "cornell-near", sw, [f"light.center=[1.6,3.2,{z:.4f}]"]))
-        for wd in preset["slat_widths"]:
-            slat_runs.append(converge(args, f"slats-{wd}", "occlusion", sw,
-                                      [f"meshes.slat-x.size=[{wd},0.04,{BOX[2]}]",
-                                       f"meshes.slat-z.size=[{BOX[0]},0.04,{wd}]"]))
-    if head and radius_runs and not args.no_report:
-        write_report(args, preset, head, radius_runs, near_runs, slat_runs, preset["radii"], preset["near_k"],
-                     preset["slat_widths"])
-        log(f"study: wrote {os.path.join(args.out, 'README.md')}")
-    if args.check and head and not check(head):
-        ok = False
+        os.makedirs(many_dir, exist_ok=True)
+        ok = finish_many_lights(args, many, many_dir, many_runs, *run_all(args, many_runs)) and ok
+    if args.part in ("thesis", "all"):
+        head, sweeps = run_all(args, thesis_runs)
+        radius_runs = sweeps.get("radius", [])
+        if head and radius_runs and not args.no_report:
+            write_report(args, preset, head, radius_runs, sweeps.get("distance", []), sweeps.get("occlusion", []),
+                         preset["radii"], preset["near_k"], preset["slat_widths"])
+            log(f"study: wrote {os.path.join(args.out, 'README.md')}")
+        if args.check and head and not check(head):
+            ok = False
     if not ok:
         sys.exit(1)
     if not args.keep_runs:
         # Keep what the report needs to stay reproducible and small: CSV, JSON, PNG.
-        for root, _, files in os.walk(os.path.join(args.out, "runs")):
-            for f in files:
-                if f.endswith(".npy"):
-                    os.remove(os.path.join(root, f))
-
+        for runs in (os.path.join(args.out, "runs"), os.path.join(lab_dir, "runs"), os.path.join(many_dir, "runs")):
+            for root, _, files in os.walk(runs):
+                for f in files:
+                    if f.endswith(".npy"):
+                        os.remove(os.path.join(root, f))
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except RunFailed as e:
+        log(f"study: stopped: {e}")
+        sys.exit(e.status)
+    except KeyboardInterrupt:
+        # Ctrl-C: one line, not a traceback. penumbra, in the same process group,
+        # stopped too and said so; its outputs are written atomically.
+        log("study: interrupted (Ctrl-C): stopped; runs already finished are complete")
+        sys.exit(130)

@@ -319,6 +319,7 @@ def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str]
              overrides: Optional[Mapping[str, Any]] = None, backend: str = "auto", threads: Optional[int] = None,
              cache: Optional[str] = None, out: Optional[str] = None, threshold: float = 0.05, crop_spp: int = 32,
              crop: Optional[Sequence[int]] = None, fit_min_spp: int = 4, verbose: bool = False,
+             yes: bool = False, estimate_only: bool = False,
              progress: Optional[ProgressFn] = None) -> ConvergeResult:
     """One convergence experiment, as ``penumbra converge`` runs it: a ground truth
     (cached under ``cache``, default ~/.cache/penumbra), then 1, 2, 4, ... max_spp
@@ -329,6 +330,11 @@ def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str]
 
     ``scene`` is a built-in scene's name or a scene file; ``overrides`` as in
     load_scene. The other arguments are the CLI's options of the same names.
+
+    Before rendering, the run time is estimated from a measured render; on the
+    CPU, an estimate over an hour raises ValueError unless ``yes``. With
+    ``estimate_only``, nothing is rendered or written: ``summary`` holds
+    ``estimated_seconds``, ``backend``, ``device`` and ``reference_cached``.
     """
     if not isinstance(scene, (str, os.PathLike)):
         raise TypeError("converge() takes a built-in scene's name or a scene file (save a dict with json.dump)")
@@ -341,7 +347,7 @@ def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str]
         _check_backend(backend), list(strategies), list(mis), reference_strategy, reference_mis, width or 0,
         height or 0, max_spp, seeds,
         reference_spp, crop_spp, fit_min_spp, _threads(threads), float(threshold), list(crop or []), verbose,
-        progress)
+        yes, estimate_only, progress)
     return ConvergeResult(rows, summary)
 
 

@@ -423,7 +423,7 @@ them without a copy to the host.)")
          const std::vector<std::string>& mis, const std::string& reference_strategy, const std::string& reference_mis,
          int width, int height, int max_spp, int seeds, int reference_spp,
          int crop_spp, int fit_min_spp, int threads, double threshold, const std::vector<int>& crop, bool verbose,
-         nb::object progress) {
+         bool yes, bool estimate_only, nb::object progress) {
         ConvergeOptions o;
         o.scene = scene;
         o.sets = sets;
@@ -445,6 +445,8 @@ them without a copy to the host.)")
         o.threshold = threshold;
         o.crop = crop;
         o.verbose = verbose;
+        o.yes = yes;
+        o.estimate_only = estimate_only;
         o.progress = python_progress(std::move(progress));
         ConvergeResult r = backend_call([&] { return run_converge(o); });
         nb::list rows;
@@ -466,5 +468,5 @@ them without a copy to the host.)")
       "scene"_a, "sets"_a, "out"_a, "cache"_a, "backend"_a, "strategies"_a, "mis"_a, "reference_strategy"_a,
       "reference_mis"_a, "width"_a,
       "height"_a, "max_spp"_a, "seeds"_a, "reference_spp"_a, "crop_spp"_a, "fit_min_spp"_a, "threads"_a,
-      "threshold"_a, "crop"_a, "verbose"_a, "progress"_a.none());
+      "threshold"_a, "crop"_a, "verbose"_a, "yes"_a, "estimate_only"_a, "progress"_a.none());
 }

@@ -23,7 +23,10 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "apps/exit_status.h"
+#include "io/output.h"
 #include "render/backend.h"
+#include "render/resources.h"
 #include "render/technique.h"
 #include "scene/scene.h"
 #if PN_HAVE_OPTIX
@@ -135,6 +138,7 @@ struct SceneBuild {
 double mib(uint64_t bytes) { return double(bytes) / (1024.0 * 1024.0); }
 
 int run_bench(const BenchArgs& a) {
+  if (!a.json_path.empty()) check_output_file(a.json_path, "--json");  // before any work
   std::vector<std::string> scene_names = split_list(a.scenes);
   const bool all_builtins = scene_names.empty();
   if (all_builtins)
@@ -155,6 +159,7 @@ int run_bench(const BenchArgs& a) {
 
   std::vector<Result> results;
   std::vector<SceneBuild> builds;
+  uint64_t nonfinite = 0;  // samples left out, over every render
   std::string backend_name, device_name;
   std::vector<std::pair<std::string, std::string>> info;
   int W = 0, H = 0, launches = 0, warmup = 0;
@@ -179,6 +184,11 @@ int run_bench(const BenchArgs& a) {
       continue;
     }
 
+    check_memory(scene.source + ": bench at " + std::to_string(W) + "x" + std::to_string(H),
+                 {{"film", film_bytes(W, H)},
+                  {"acceleration structures", (backend_name.empty() ? a.backend : backend_name) == "optix"
+                                                  ? 0
+                                                  : cpu_backend_bytes(scene)}});
     BackendOptions opts;
     opts.threads = a.threads;
     opts.spp_per_launch = a.spp_per_launch;
@@ -251,11 +261,13 @@ int run_bench(const BenchArgs& a) {
             gpu_ms += total.back();
           }
           r.rays = st.rays;
+          nonfinite += st.nonfinite;
         } else {
           for (int i = 0; i < launches; ++i) {
             auto s = std::chrono::steady_clock::now();
             backend->render(frame, film, first + uint32_t(i * a.spp_per_launch), uint32_t(a.spp_per_launch));
             total.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - s).count());
+            nonfinite += backend->last_render_stats().nonfinite;
           }
         }
         double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -391,6 +403,7 @@ int run_bench(const BenchArgs& a) {
         o["device_used_before_mib"] = mib(s.device_used_before);
         o["device_used_after_mib"] = mib(s.device_used_after);
         o["device_used_delta_mib"] = mib(s.device_used_after) - mib(s.device_used_before);
+        o["estimated_mib"] = mib(s.estimated_bytes);  // checked against free memory before building
       }
       sb.push_back(o);
     }
@@ -399,13 +412,17 @@ int run_bench(const BenchArgs& a) {
         "triangles counted per instance; build times by the host clock around synchronised optixAccelBuild (+ "
         "compaction) calls; device memory used = cudaMemGetInfo total - free (device-wide), before the scene was "
         "built (CUDA and OptiX contexts exist) and after the pipeline, acceleration structures, buffers and textures";
-    std::ofstream f(a.json_path);
-    if (!f) throw std::runtime_error(a.json_path + ": cannot write");
-    f << j.dump(2) << "\n";
-    if (!f) throw std::runtime_error(a.json_path + ": write failed");
+    j["nonfinite_samples"] = nonfinite;
+    write_file_atomic(a.json_path, j.dump(2) + "\n");
     std::fprintf(stderr, "wrote %s\n", a.json_path.c_str());
   }
-  return 0;
+  if (nonfinite > 0) {
+    std::fprintf(stderr,
+                 "warning: %llu samples were NaN or infinite and left out (counted as black) (exit status %d)\n",
+                 (unsigned long long)nonfinite, int(kExitNonFinite));
+    return kExitNonFinite;
+  }
+  return kExitOk;
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "apps/commands.h"
+#include "apps/exit_status.h"
 #include "io/image.h"
 #include "render/compare.h"
 
@@ -24,9 +25,13 @@ Command add_compare_command(CLI::App& app) {
   sub->add_option("b", x->b, "Second image (EXR)")->required()->check(CLI::ExistingFile);
   sub->add_option("b_var", x->b_var, "Its variance (EXR)")->required()->check(CLI::ExistingFile);
   sub->add_option("--max-rel-diff", x->opt.max_mean_rel_diff, "Largest accepted relative difference of the image means")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(finite_number())
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("--max-outliers", x->opt.max_outlier_fraction, "Largest accepted fraction of channels beyond 5 sigma")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(finite_number())
+      ->check(CLI::Range(0.0, 1.0));
   return {sub, [x]() {
             int w[4], h[4];
             auto a = read_exr(x->a, &w[0], &h[0]);
@@ -39,7 +44,7 @@ Command add_compare_command(CLI::App& app) {
                                          std::to_string(w[0]) + "x" + std::to_string(h[0]) + ")");
             CompareResult r = compare_images(a, va, b, vb, x->opt);
             std::printf("%s vs %s: %s\n", x->a.c_str(), x->b.c_str(), r.summary().c_str());
-            return r.pass ? 0 : 3;
+            return r.pass ? kExitOk : kExitDiffer;
           }};
 }
 

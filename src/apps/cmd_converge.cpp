@@ -8,7 +8,9 @@
 #include <string>
 
 #include "apps/commands.h"
+#include "apps/exit_status.h"
 #include "apps/progress.h"
+#include "io/output.h"
 #include "render/converge.h"
 
 namespace pn {
@@ -27,28 +29,56 @@ Command add_converge_command(CLI::App& app) {
                       "); a technique is named 'area' (MIS none) or 'area+power'")
       ->delimiter(',')
       ->capture_default_str();
-  sub->add_option("--max-spp", a->max_spp, "Largest spp (renders at 1, 2, 4, ... up to it)")->capture_default_str();
-  sub->add_option("--seeds", a->seeds, "Independent renders per point")->capture_default_str();
-  sub->add_option("--reference-spp", a->reference_spp, "Samples per pixel of the ground truth")->capture_default_str();
+  sub->add_option("--max-spp", a->max_spp, "Largest spp (renders at 1, 2, 4, ... up to it)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 24));
+  sub->add_option("--seeds", a->seeds, "Independent renders per point")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000));
+  sub->add_option("--reference-spp", a->reference_spp, "Samples per pixel of the ground truth")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 24));
   sub->add_option("--reference-strategy", a->reference_strategy, "Strategy of the ground truth")->capture_default_str();
   sub->add_option("--reference-mis", a->reference_mis, "MIS mode of the ground truth")->capture_default_str();
   sub->add_option("--cache", a->cache, "Folder for cached ground truths (default: $XDG_CACHE_HOME/penumbra or ~/.cache/penumbra)");
-  sub->add_option("--width", a->width, "Image width (default: the scene's)");
-  sub->add_option("--height", a->height, "Image height (default: the scene's)");
-  sub->add_option("--threshold", a->threshold, "RMSE for time-to-quality")->capture_default_str();
-  sub->add_option("--crop-spp", a->crop_spp, "spp of the visual-comparison crops")->capture_default_str();
+  sub->add_option("--width", a->width, "Image width (default: the scene's)")->check(CLI::Range(1, 16384));
+  sub->add_option("--height", a->height, "Image height (default: the scene's)")->check(CLI::Range(1, 16384));
+  sub->add_option("--threshold", a->threshold, "RMSE for time-to-quality")
+      ->capture_default_str()
+      ->check(finite_number())
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--crop-spp", a->crop_spp, "spp of the visual-comparison crops")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 24));
   sub->add_option("--crop", a->crop, "Crop rectangle x,y,w,h (default: around the light)")->delimiter(',')->expected(4);
-  sub->add_option("--fit-min-spp", a->fit_min_spp, "Smallest spp used in the log-log fits")->capture_default_str();
+  sub->add_option("--fit-min-spp", a->fit_min_spp, "Smallest spp used in the log-log fits")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 24));
   sub->add_option("--backend", a->backend, "cpu, optix or auto")->capture_default_str()->check(CLI::IsMember({"cpu", "optix", "auto"}));
-  sub->add_option("--threads", a->threads, "CPU threads (default: all)");
+  sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  sub->add_flag("--yes", a->yes, "Run even when the estimated time on the CPU is more than an hour");
+  sub->add_flag("--estimate-only", a->estimate_only,
+                "Measure and print the estimated run time (JSON on stdout), render nothing else, write nothing");
   sub->add_option("--set", a->sets, "Override a scene value (repeatable), e.g. --set light.radius=0.05")->allow_extra_args(false);
   return {sub, [a]() {
     ConvergeOptions o = *a;
     if (o.out.empty()) o.out = "converge-" + std::filesystem::path(o.scene).stem().string();
     ConvergeResult r = run_converge(o);
+    if (o.estimate_only) {
+      std::printf("%s\n", r.summary.dump().c_str());
+      return int(kExitOk);
+    }
     std::fprintf(stderr, "wrote %s/summary.json and measurements.csv (%s)\n", o.out.c_str(),
                  format_duration(r.summary["seconds"].get<double>()).c_str());
-    return 0;
+    const uint64_t nonfinite = r.summary.value("nonfinite_samples", uint64_t(0));
+    if (nonfinite > 0) {
+      std::fprintf(stderr,
+                   "warning: %s: %llu samples were NaN or infinite and left out (counted as black) over all renders; "
+                   "the outputs were written (exit status %d)\n",
+                   o.scene.c_str(), (unsigned long long)nonfinite, int(kExitNonFinite));
+      return int(kExitNonFinite);
+    }
+    return int(kExitOk);
   }};
 }
 

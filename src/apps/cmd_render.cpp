@@ -8,10 +8,13 @@
 #include <vector>
 
 #include "apps/commands.h"
+#include "apps/exit_status.h"
 #include "apps/options.h"
 #include "apps/progress.h"
 #include "io/image.h"
+#include "io/output.h"
 #include "render/backend.h"
+#include "render/resources.h"
 #include "scene/scene.h"
 
 namespace pn {
@@ -63,6 +66,18 @@ void print_launch_stats(const RenderStats& st, double pixels) {
 }
 
 int run_render(const RenderArgs& a) {
+  // Outputs first: a typo in a folder name is found before the render, not after.
+  const std::string out = a.output.empty() ? default_output(a.scene) : a.output;
+  check_image_path(out);
+  check_output_file(out, "-o");
+  std::vector<std::pair<std::string, std::string>> outputs = {{"-o", out}};
+  if (!a.variance.empty()) {
+    check_image_path(a.variance);
+    check_output_file(a.variance, "--variance");
+    outputs.push_back({"--variance", a.variance});
+  }
+  check_distinct_outputs(outputs);
+
   // Command-line settings are overrides like any --set, validated in one place.
   std::vector<std::string> overrides = a.sets;
   auto set = [&](const char* key, const std::string& v) { overrides.push_back(std::string(key) + "=" + v); };
@@ -79,16 +94,17 @@ int run_render(const RenderArgs& a) {
   Scene scene = load_scene(a.scene, overrides);
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
 
-  std::string out = a.output.empty() ? default_output(a.scene) : a.output;
-  check_image_path(out);  // fail before a long render, not after
-  if (!a.variance.empty()) check_image_path(a.variance);
+  const RenderSettings& r = scene.render;
+  check_memory(scene.source + ": rendering " + std::to_string(r.width) + "x" + std::to_string(r.height),
+               {{"film", film_bytes(r.width, r.height)},
+                {"writing the image", image_write_bytes(r.width, r.height)},
+                {"acceleration structures", a.backend == "optix" ? 0 : cpu_backend_bytes(scene)}});
   BackendOptions opts;
   opts.threads = a.threads;
   std::string note;
   std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
   std::fprintf(stderr, "%s\n", note.c_str());
 
-  const RenderSettings& r = scene.render;
   std::fprintf(stderr, "%s: %dx%d, %d spp, strategy %s, MIS %s, light selection %s, max depth %d, seed %u\n",
                scene.source.c_str(), r.width, r.height, r.spp, strategy_name(r.strategy), mis_name(r.mis),
                light_selection_label(r.light_selection, r.restir).c_str(), r.max_depth, r.seed);
@@ -96,23 +112,36 @@ int run_render(const RenderArgs& a) {
   ProgressBar bar("rendering");
   backend->render(frame_spec(scene), film, 0, uint32_t(r.spp),
                   [&](uint64_t done, uint64_t total) { bar.update(done, total); });
-  double seconds = bar.finish();
+  const double render_seconds = bar.finish();
+  const RenderStats stats = backend->last_render_stats();
 
+  // The image is written even when samples were dropped: a finished render is never thrown away.
+  std::fprintf(stderr, "writing %s\n", out.c_str());
   write_image(out, r.width, r.height, film.mean(), a.exposure);
-  if (!a.variance.empty()) write_image(a.variance, r.width, r.height, film.variance_of_mean());
+  if (!a.variance.empty()) {
+    std::fprintf(stderr, "writing %s\n", a.variance.c_str());
+    write_image(a.variance, r.width, r.height, film.variance_of_mean());
+  }
+  const double seconds = bar.elapsed();  // rendering and writing
   double samples = double(r.width) * r.height * r.spp;
-  std::fprintf(stderr, "wrote %s%s%s: %s wall, %.3g samples/s (%.2f Msamples/s)\n", out.c_str(),
+  std::fprintf(stderr, "wrote %s%s%s: %s wall (%s writing), %.3g samples/s (%.2f Msamples/s)\n", out.c_str(),
                a.variance.empty() ? "" : " and ", a.variance.c_str(), format_duration(seconds).c_str(),
-               samples / seconds, samples / seconds * 1e-6);
+               format_duration(seconds - render_seconds).c_str(), samples / render_seconds,
+               samples / render_seconds * 1e-6);
   if (a.stats) {
     std::fprintf(stderr, "stats: %zu triangles, %zu spheres, %zu lights, %.3f ms per spp\n", scene.triangle_count(),
-                 scene.spheres.size(), scene.lights.size(), seconds * 1e3 / r.spp);
+                 scene.spheres.size(), scene.lights.size(), render_seconds * 1e3 / r.spp);
     const LightBvh& bvh = scene.light_bvh;
     std::fprintf(stderr, "stats: light BVH: %u lights, %zu nodes, depth %u, %.2f MiB, built in %.2f ms\n", bvh.lights,
                  bvh.nodes.size(), bvh.depth, double(bvh.bytes()) / (1024.0 * 1024.0), bvh.build_ms);
-    print_launch_stats(backend->last_render_stats(), double(r.width) * r.height);
+    print_launch_stats(stats, double(r.width) * r.height);
   }
-  return 0;
+  if (stats.nonfinite > 0) {
+    std::fprintf(stderr, "warning: %s: %s; %s was written (exit status %d)\n", scene.source.c_str(),
+                 describe_nonfinite(stats).c_str(), out.c_str(), int(kExitNonFinite));
+    return kExitNonFinite;
+  }
+  return kExitOk;
 }
 
 }  // namespace
@@ -138,6 +167,7 @@ Command add_render_command(CLI::App& app) {
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   sub->add_option("--exposure", a->exposure, "PNG exposure in stops (x 2^stops before sRGB)")
       ->capture_default_str()
+      ->check(finite_number())
       ->check(CLI::Range(-64.f, 64.f));
   sub->add_option("--variance", a->variance, "Also write the per-pixel variance of the mean (EXR)");
   sub->add_flag("--stats", a->stats, "Print scene and timing statistics");

@@ -68,23 +68,44 @@ PN_FN bool intersect_sphere(const Ray& ray, Vec3 center, float radius, float tmi
 // report a hit a rounding error outside the exact sphere.
 PN_FN float sphere_bounds_radius(float radius) { return radius * 1.0001f; }
 
-// Moebius-Trumbore ray-triangle intersection; used by tests and by scene code
-// that needs a triangle test outside a backend.
+// Watertight ray-triangle intersection (Woop, Benthin and Wald, "Watertight
+// Ray/Triangle Intersection", JCGT 2(1), 2013): the vertices are moved into a
+// frame where the ray runs along +z from the origin, and the three edge
+// functions are evaluated there, each edge the same way for both triangles that
+// share it; a ray through an edge or a vertex hits at least one of them. Edge
+// functions that round to exactly 0 are recomputed in double. Embree answers
+// the same way with RTC_SCENE_FLAG_ROBUST (CPU backend); OptiX's built-in
+// triangles are watertight. Used by tests and by code outside a backend.
 PN_FN bool intersect_triangle(const Ray& ray, Vec3 p0, Vec3 p1, Vec3 p2, float tmin, float tmax,
                               float* t_hit) {
-  Vec3 e1 = p1 - p0, e2 = p2 - p0;
-  Vec3 pv = cross(ray.d, e2);
-  float det = dot(e1, pv);
+  // The axis along which the direction is largest becomes z; x and y follow,
+  // swapped when d.z < 0 so that the winding is kept.
+  const float ax = std::fabs(ray.d.x), ay = std::fabs(ray.d.y), az = std::fabs(ray.d.z);
+  const int kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+  int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+  if (ray.d[kz] < 0.f) {
+    const int k = kx;
+    kx = ky;
+    ky = k;
+  }
+  if (ray.d[kz] == 0.f) return false;  // a zero direction
+  const float sx = ray.d[kx] / ray.d[kz], sy = ray.d[ky] / ray.d[kz], sz = 1.f / ray.d[kz];
+  const Vec3 a = p0 - ray.o, b = p1 - ray.o, c = p2 - ray.o;
+  const float a_x = a[kx] - sx * a[kz], a_y = a[ky] - sy * a[kz];
+  const float b_x = b[kx] - sx * b[kz], b_y = b[ky] - sy * b[kz];
+  const float c_x = c[kx] - sx * c[kz], c_y = c[ky] - sy * c[kz];
+  // Edge functions: u of edge (b, c), v of (c, a), w of (a, b).
+  float u = c_x * b_y - c_y * b_x, v = a_x * c_y - a_y * c_x, w = b_x * a_y - b_y * a_x;
+  if (u == 0.f || v == 0.f || w == 0.f) {
+    u = float(double(c_x) * double(b_y) - double(c_y) * double(b_x));
+    v = float(double(a_x) * double(c_y) - double(a_y) * double(c_x));
+    w = float(double(b_x) * double(a_y) - double(b_y) * double(a_x));
+  }
+  if ((u < 0.f || v < 0.f || w < 0.f) && (u > 0.f || v > 0.f || w > 0.f)) return false;
+  const float det = u + v + w;
   if (det == 0.f) return false;
-  float inv = 1.f / det;
-  Vec3 tv = ray.o - p0;
-  float u = dot(tv, pv) * inv;
-  if (u < 0.f || u > 1.f) return false;
-  Vec3 qv = cross(tv, e1);
-  float v = dot(ray.d, qv) * inv;
-  if (v < 0.f || u + v > 1.f) return false;
-  float t = dot(e2, qv) * inv;
-  if (t <= tmin || t >= tmax) return false;
+  const float t = (u * sz * a[kz] + v * sz * b[kz] + w * sz * c[kz]) / det;
+  if (!(t > tmin && t < tmax)) return false;
   *t_hit = t;
   return true;
 }
@@ -94,7 +115,19 @@ PN_FN bool intersect_triangle(const Ray& ray, Vec3 p0, Vec3 p1, Vec3 p2, float t
 
 // Triangle: barycentrics (b1, b2) of p1 and p2. The point is interpolated, which
 // is more accurate than o + t d; the normal follows the winding (p1-p0) x (p2-p0).
+//
+// The barycentrics are first pulled towards the centroid by kHitShrink of the
+// way. A hit at an edge, interpolated in floats, can land a rounding error
+// beyond the plane of the neighbouring face; offset_ray_origin then moves it
+// along this face's normal only, so a ray leaving towards the neighbour starts
+// behind it and escapes a closed mesh (a camera inside a closed box would see
+// light at its seams). Pulled in, the point is inside the triangle by far more
+// than that rounding error (by kHitShrink of the triangle's size), and the
+// image moves by nothing measurable.
+constexpr float kHitShrink = 1.f / 65536.f;
 PN_FN void triangle_hit(Vec3 p0, Vec3 p1, Vec3 p2, float b1, float b2, Vec3* p, Vec3* n) {
+  b1 = b1 * (1.f - 3.f * kHitShrink) + kHitShrink;
+  b2 = b2 * (1.f - 3.f * kHitShrink) + kHitShrink;
   *p = p0 * (1.f - b1 - b2) + p1 * b1 + p2 * b2;
   *n = normalize(cross(p1 - p0, p2 - p0));
 }

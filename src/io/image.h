@@ -3,15 +3,21 @@
 //   .png  sRGB 8-bit, after exposure (x 2^stops) and clamping (stb_image_write)
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
 namespace pn {
 
-// rgb: width*height*3 floats, row 0 at the top. Throws std::runtime_error with
-// one line naming the path on failure or on an unknown extension.
+// rgb: width*height*3 floats, row 0 at the top. Written atomically
+// (io/output.h): a failure leaves an existing file as it was. Throws
+// std::runtime_error with one line naming the path on failure or on an unknown
+// extension.
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb,
                  float exposure_stops = 0.f);
+
+// A PNG of 8-bit pixels (channels 1..4, rows top first); `path` names it in errors.
+std::vector<uint8_t> encode_png(const std::string& path, int width, int height, int channels, const uint8_t* pixels);
 
 // Throws the same one-line error write_image would for an unsupported extension.
 void check_image_path(const std::string& path);

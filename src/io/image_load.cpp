@@ -10,6 +10,8 @@
 #include <stb/stb_image.h>
 #include <tinyexr.h>
 
+#include "render/resources.h"
+
 namespace pn {
 
 namespace {
@@ -37,29 +39,206 @@ bool size_ok(int w, int h, std::string* error) {
 
 float srgb_decode(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
+// Radiance is finite and never negative: channels that are not become 0.
+// Returns how many texels had one.
+size_t repair_float_texels(std::vector<uint8_t>& texels) {
+  size_t repaired = 0;
+  const size_t n = texels.size() / 16;
+  for (size_t i = 0; i < n; ++i) {
+    float c[4];
+    std::memcpy(c, &texels[16 * i], sizeof c);
+    bool bad = false;
+    for (float& v : c)
+      if (!(v >= 0.f) || !std::isfinite(v)) {  // NaN fails v >= 0
+        v = 0.f;
+        bad = true;
+      }
+    if (bad) {
+      std::memcpy(&texels[16 * i], c, sizeof c);
+      ++repaired;
+    }
+  }
+  return repaired;
+}
+
+// Whether stb_image's Radiance HDR decoder ends on these bytes. Its run-length
+// decoder (Debian's stb of 2022-09) loops forever on a count of 0, which any
+// truncated file reaches (it reads 0 past the end): found by fuzz_image, the
+// file is tests/fuzz/regressions/image/hdr-rle-zero-count-never-ends.hdr. This
+// walks the scanlines as stbi__hdr_load does, without decoding them; anything
+// else stb rejects by itself.
+bool hdr_decoder_ends(const uint8_t* data, size_t size) {
+  size_t pos = 0;
+  auto at_eof = [&]() { return pos >= size; };
+  auto get8 = [&]() -> unsigned { return pos < size ? data[pos++] : 0u; };
+  // stbi__hdr_gettoken, to the letter: a line of at most 1023 characters (the
+  // rest of a longer one skipped), the last byte of the file never part of it,
+  // and read as a C string (up to the first NUL: a line of NULs ends the header).
+  auto token = [&]() {
+    char buf[1024];
+    int len = 0;
+    char c = char(get8());
+    while (!at_eof() && c != '\n') {
+      buf[len++] = c;
+      if (len == 1023) {
+        while (!at_eof() && get8() != '\n') {
+        }
+        break;
+      }
+      c = char(get8());
+    }
+    buf[len] = 0;
+    return std::string(buf);
+  };
+  const std::string magic = token();
+  if (magic != "#?RADIANCE" && magic != "#?RGBE") return true;
+  bool valid = false;
+  for (std::string t; !(t = token()).empty();) valid = valid || t == "FORMAT=32-bit_rle_rgbe";
+  if (!valid) return true;
+  const std::string res = token();
+  if (res.compare(0, 3, "-Y ") != 0) return true;
+  char* end = nullptr;
+  const long height = int(std::strtol(res.c_str() + 3, &end, 10));  // stb keeps an int
+  while (*end == ' ') ++end;
+  if (std::strncmp(end, "+X ", 3) != 0) return true;
+  const long width = int(std::strtol(end + 3, nullptr, 10));
+  if (width < 8 || width >= 32768 || height <= 0) return true;  // flat scanlines: no runs
+  for (long y = 0; y < height; ++y) {
+    const unsigned c1 = get8(), c2 = get8(), hi = get8();
+    if (c1 != 2 || c2 != 2 || (hi & 0x80)) return true;  // not run-length encoded: read flat
+    if (long((hi << 8) | get8()) != width) return true;  // stb: "invalid decoded scanline length"
+    for (int k = 0; k < 4; ++k)
+      for (long i = 0; i < width;) {
+        unsigned count = get8();
+        if (count > 128) {
+          count -= 128;
+          get8();
+        } else if (count == 0) {
+          return false;  // stb would add 0 pixels and read the same count again, forever
+        } else {
+          pos += count;
+        }
+        if (long(count) > width - i) return true;  // stb: "bad RLE data in HDR"
+        i += long(count);
+      }
+  }
+  return true;
+}
+
 bool is_exr(const uint8_t* d, size_t n) { return n >= 4 && d[0] == 0x76 && d[1] == 0x2f && d[2] == 0x31 && d[3] == 0x01; }
 
+// Whether decoding a w x h image fits in memory: ours, the decoder's own copy
+// and (EXR) its per-channel planes. Checked from the header, before decoding.
+bool memory_ok(int w, int h, bool is_float, std::string* error) {
+  const uint64_t texels = uint64_t(w) * uint64_t(h);
+  try {
+    check_memory("decoding a " + std::to_string(w) + "x" + std::to_string(h) + " image",
+                 {{"texels", texels * (is_float ? 16 : 4)}, {"the decoder's buffers", texels * (is_float ? 32 : 4)}});
+  } catch (const std::exception& e) {
+    *error = e.what();
+    return false;
+  }
+  return true;
+}
+
+// OpenEXR through tinyexr's lower-level calls, whose results are freed on
+// every path: its LoadEXRFromMemory leaks the header and the image when a
+// file's pixels fail to decode or lack a channel (found by fuzz_image). R, G
+// and B channels (or one grey channel), scanline or tiled (level 0); HALF
+// read as float, UINT converted.
 bool decode_exr(const uint8_t* data, size_t size, DecodedImage* out, std::string* error) {
-  float* rgba = nullptr;
+  EXRVersion version;
+  if (ParseEXRVersionFromMemory(&version, data, size) != TINYEXR_SUCCESS) {
+    *error = "cannot decode EXR: not an OpenEXR file";
+    return false;
+  }
+  if (version.multipart || version.non_image) {
+    *error = "cannot decode EXR: multi-part and deep images are not supported";
+    return false;
+  }
+  // Frees what tinyexr allocated, however decoding ends. The image only when it
+  // loaded: a failed LoadEXRImageFromMemory calls FreeEXRImage itself and
+  // leaves the freed pointers behind (see below for its channel buffers).
+  struct Owned {
+    EXRHeader header;
+    EXRImage image;
+    bool image_loaded = false;
+    Owned() {
+      InitEXRHeader(&header);
+      InitEXRImage(&image);
+    }
+    ~Owned() {
+      if (image_loaded) FreeEXRImage(&image);
+      FreeEXRHeader(&header);
+    }
+  } exr;
   const char* err = nullptr;
-  int w = 0, h = 0;
-  int rc = LoadEXRFromMemory(&rgba, &w, &h, data, size, &err);
-  if (rc != TINYEXR_SUCCESS) {
-    *error = std::string("cannot decode EXR: ") + (err ? err : "unknown error");
+  auto fail = [&](const std::string& why) {
+    std::string e = err ? std::string(err) : why;  // tinyexr's messages end in (and may hold) newlines
+    while (!e.empty() && (e.back() == '\n' || e.back() == ' ')) e.pop_back();
+    std::replace(e.begin(), e.end(), '\n', ' ');
+    *error = "cannot decode EXR: " + e;
     if (err) FreeEXRErrorMessage(err);
-    if (rgba) free(rgba);
+    err = nullptr;
     return false;
+  };
+  if (ParseEXRHeaderFromMemory(&exr.header, &version, data, size, &err) != TINYEXR_SUCCESS)
+    return fail("invalid header");
+  EXRHeader& h = exr.header;
+  const int64_t w = int64_t(h.data_window.max_x) - h.data_window.min_x + 1;
+  const int64_t ht = int64_t(h.data_window.max_y) - h.data_window.min_y + 1;
+  if (w <= 0 || ht <= 0 || w > (int64_t(1) << 30) || ht > (int64_t(1) << 30)) return fail("invalid data window");
+  if (!size_ok(int(w), int(ht), error) || !memory_ok(int(w), int(ht), true, error)) return false;
+  int idx[4] = {-1, -1, -1, -1};  // R, G, B, A
+  for (int c = 0; c < h.num_channels; ++c) {
+    if (h.pixel_types[c] == TINYEXR_PIXELTYPE_HALF) h.requested_pixel_types[c] = TINYEXR_PIXELTYPE_FLOAT;
+    const std::string name = h.channels[c].name;
+    const int k = name == "R" ? 0 : name == "G" ? 1 : name == "B" ? 2 : name == "A" ? 3 : -1;
+    if (k >= 0) idx[k] = c;
   }
-  if (!size_ok(w, h, error)) {
-    free(rgba);
-    return false;
-  }
-  out->width = w;
-  out->height = h;
+  if (h.num_channels == 1) idx[0] = idx[1] = idx[2] = 0;
+  if (idx[0] < 0 || idx[1] < 0 || idx[2] < 0) return fail("no R, G and B channels");
+  // tinyexr 1.0.1 sets the image's num_channels only on success, and its clean-up
+  // after a failed decode frees num_channels channel buffers: set beforehand,
+  // those are freed too instead of leaking (found by fuzz_image; the file is
+  // tests/fuzz/regressions/image/exr-leak-on-bad-pixels.exr).
+  exr.image.num_channels = h.num_channels;
+  if (LoadEXRImageFromMemory(&exr.image, &h, data, size, &err) != TINYEXR_SUCCESS) return fail("invalid pixels");
+  exr.image_loaded = true;
+  const EXRImage& img = exr.image;
+  if (img.width != int(w) || img.height != int(ht)) return fail("inconsistent size");
+  auto sample = [&](unsigned char* const* planes, int c, size_t i) -> float {
+    if (h.requested_pixel_types[c] == TINYEXR_PIXELTYPE_UINT)
+      return float(reinterpret_cast<const uint32_t*>(planes[c])[i]);
+    return reinterpret_cast<const float*>(planes[c])[i];
+  };
+  out->width = int(w);
+  out->height = int(ht);
   out->is_float = true;
-  out->texels.resize(size_t(w) * h * 16);
-  std::memcpy(out->texels.data(), rgba, out->texels.size());
-  free(rgba);
+  out->texels.assign(size_t(w) * size_t(ht) * 16, 0);
+  float* rgba = reinterpret_cast<float*>(out->texels.data());
+  auto put = [&](unsigned char* const* planes, size_t src, size_t dst) {
+    for (int k = 0; k < 3; ++k) rgba[4 * dst + k] = sample(planes, idx[k], src);
+    rgba[4 * dst + 3] = idx[3] >= 0 ? sample(planes, idx[3], src) : 1.f;
+  };
+  if (h.tiled) {
+    if (!img.tiles || h.tile_size_x <= 0 || h.tile_size_y <= 0) return fail("invalid tiles");
+    for (int t = 0; t < img.num_tiles; ++t) {
+      const EXRTile& tile = img.tiles[t];
+      if (tile.level_x != 0 || tile.level_y != 0) continue;
+      if (!tile.images || tile.width > h.tile_size_x || tile.height > h.tile_size_y) return fail("invalid tile");
+      for (int j = 0; j < tile.height; ++j)
+        for (int i = 0; i < tile.width; ++i) {
+          const int64_t x = int64_t(tile.offset_x) * h.tile_size_x + i, y = int64_t(tile.offset_y) * h.tile_size_y + j;
+          if (x < 0 || y < 0 || x >= w || y >= ht) continue;
+          put(tile.images, size_t(j) * size_t(h.tile_size_x) + size_t(i), size_t(y) * size_t(w) + size_t(x));
+        }
+    }
+  } else {
+    if (!img.images) return fail("no pixels");
+    for (size_t i = 0; i < size_t(w) * size_t(ht); ++i) put(img.images, i, i);
+  }
+  out->repaired_texels = repair_float_texels(out->texels);
   return true;
 }
 
@@ -95,9 +274,14 @@ bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, Deco
   }
   if (!size_ok(w, h, error)) return false;
   const bool hdr = stbi_is_hdr_from_memory(data, int(size)) != 0;
+  if (!memory_ok(w, h, want_float, error)) return false;
   if (want_float) {
     // stbi_loadf would linearize 8-bit images with gamma 2.2; decode sRGB exactly instead.
     if (hdr) {
+      if (!hdr_decoder_ends(data, size)) {
+        *error = "cannot decode image: bad or truncated run-length data in HDR";
+        return false;
+      }
       float* f = stbi_loadf_from_memory(data, int(size), &w, &h, &comp, 4);
       if (!f) {
         const char* why = stbi_failure_reason();
@@ -107,6 +291,7 @@ bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, Deco
       out->texels.resize(size_t(w) * h * 16);
       std::memcpy(out->texels.data(), f, out->texels.size());
       stbi_image_free(f);
+      out->repaired_texels = repair_float_texels(out->texels);
     } else {
       unsigned char* p = stbi_load_from_memory(data, int(size), &w, &h, &comp, 4);
       if (!p) {

@@ -14,6 +14,10 @@ struct DecodedImage {
   int width = 0, height = 0;
   bool is_float = false;         // texels: RGBA float32 (16 bytes each) or RGBA8 (4 bytes each)
   std::vector<uint8_t> texels;
+  // Float images: texels that had a NaN, infinite or negative channel, which
+  // decoding set to 0 (the texel's other channels are kept). Texture lookups
+  // and the environment's sampling distribution both see the repaired values.
+  size_t repaired_texels = 0;
 };
 
 // Largest image accepted (texels): larger headers are rejected before allocating.

@@ -1,8 +1,10 @@
 #include "io/npy.h"
 
 #include <cstdint>
-#include <fstream>
+#include <cstring>
 #include <stdexcept>
+
+#include "io/output.h"
 
 namespace pn {
 
@@ -14,15 +16,16 @@ void write_npy(const std::string& path, int height, int width, int channels, con
   size_t total = 10 + header.size() + 1;
   header.append((64 - total % 64) % 64, ' ');
   header.push_back('\n');
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw std::runtime_error(path + ": cannot write");
-  out.write("\x93NUMPY\x01\x00", 8);
+  const size_t payload = sizeof(float) * size_t(height) * width * channels;
+  std::string bytes("\x93NUMPY\x01\x00", 8);
   uint16_t len = uint16_t(header.size());
-  char len_le[2] = {char(len & 0xff), char(len >> 8)};
-  out.write(len_le, 2);
-  out << header;
-  out.write(reinterpret_cast<const char*>(data), std::streamsize(sizeof(float) * size_t(height) * width * channels));
-  if (!out) throw std::runtime_error(path + ": write failed");
+  bytes.push_back(char(len & 0xff));
+  bytes.push_back(char(len >> 8));
+  bytes += header;
+  const size_t at = bytes.size();
+  bytes.resize(at + payload);
+  std::memcpy(&bytes[at], data, payload);
+  write_file_atomic(path, bytes);
 }
 
 }  // namespace pn

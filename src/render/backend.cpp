@@ -1,5 +1,6 @@
 #include "render/backend.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "backends/cpu/cpu_backend.h"
@@ -8,6 +9,27 @@
 #endif
 
 namespace pn {
+
+std::string describe_nonfinite(const RenderStats& stats) {
+  std::string s = std::to_string(stats.nonfinite) + (stats.nonfinite == 1 ? " sample was" : " samples were") +
+                  " NaN or infinite and left out (counted as black)";
+  for (size_t i = 0; i < stats.nonfinite_pixels.size(); ++i)
+    s += (i ? ", (" : ", at pixel" + std::string(stats.nonfinite_pixels.size() > 1 ? "s (" : " (")) +
+         std::to_string(stats.nonfinite_pixels[i][0]) + ", " + std::to_string(stats.nonfinite_pixels[i][1]) + ")";
+  if (stats.nonfinite_pixels.size() == RenderStats::kMaxNonfinitePixels) s += ", ...";
+  return s;
+}
+
+void note_nonfinite_pixel(RenderStats& stats, int x, int y, int width) {
+  auto& v = stats.nonfinite_pixels;
+  auto index = [width](const std::array<int, 2>& p) { return int64_t(p[1]) * width + p[0]; };
+  const std::array<int, 2> p = {x, y};
+  auto it = std::lower_bound(v.begin(), v.end(), p, [&](const auto& a, const auto& b) { return index(a) < index(b); });
+  if (it != v.end() && *it == p) return;
+  if (v.size() == RenderStats::kMaxNonfinitePixels && it == v.end()) return;
+  v.insert(it, p);
+  if (v.size() > RenderStats::kMaxNonfinitePixels) v.pop_back();
+}
 
 FrameSpec frame_spec(const Scene& scene) {
   FrameSpec f;

@@ -3,6 +3,7 @@
 // backend only answers ray queries and schedules the work.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -43,7 +44,21 @@ struct LaunchTiming {
 struct RenderStats {
   std::vector<LaunchTiming> launches;  // one per GPU launch; empty on the CPU
   uint64_t rays = 0;                   // rays traced (path + shadow rays), counted exactly; 0 = not counted
+  // Samples whose radiance was NaN or infinite: left out of the film's sums
+  // (they count as black), never thrown away with the render. Every backend
+  // counts them, and lists the first pixels (lowest y * width + x) that had one.
+  uint64_t nonfinite = 0;
+  std::vector<std::array<int, 2>> nonfinite_pixels;  // (x, y), at most kMaxNonfinitePixels
+  static constexpr size_t kMaxNonfinitePixels = 5;
 };
+
+// One line for a user: how many samples were dropped and where, e.g.
+// "3 samples were NaN or infinite and were left out (counted as black), at pixels (4, 0), (7, 2)".
+std::string describe_nonfinite(const RenderStats& stats);
+
+// Adds pixel (x, y) of a width-wide image to the first pixels of `stats` (kept
+// sorted by row-major index, at most kMaxNonfinitePixels).
+void note_nonfinite_pixel(RenderStats& stats, int x, int y, int width);
 
 // What building a scene cost a GPU backend (`bench` reports it): acceleration
 // structure build times and the device memory the scene holds.
@@ -57,6 +72,7 @@ struct SceneBuildStats {
   uint64_t texture_bytes = 0;  // texel storage of the textures (CUDA arrays)
   uint64_t device_used_before = 0;  // cudaMemGetInfo total - free, device-wide: before the scene was built
   uint64_t device_used_after = 0;   // ... and after (pipeline, accelerations, scene, textures)
+  uint64_t estimated_bytes = 0;     // the estimate checked against free memory before building (GPU)
 };
 
 class Backend {
@@ -66,7 +82,8 @@ class Backend {
   virtual std::string device_name() const = 0;  // e.g. "2 threads (Embree 3.13.5)"
   // Adds samples [first_sample, first_sample + count) of every pixel to `film`,
   // which must already have the camera's size. Sample i of a pixel is the same
-  // path whichever call or thread computes it.
+  // path whichever call or thread computes it. Samples that are NaN or infinite
+  // are left out and counted in last_render_stats(); they never make render() fail.
   virtual void render(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
                       const ProgressFn& progress = nullptr) = 0;
   // Statistics of the last render() call.

@@ -18,6 +18,8 @@
 #include "apps/progress.h"
 #include "io/image.h"
 #include "io/npy.h"
+#include "io/output.h"
+#include "render/resources.h"
 #include "render/metrics.h"
 #include "render/technique.h"
 #include "scene/scene.h"
@@ -80,15 +82,53 @@ void write_crop(const std::string& path, const std::vector<float>& img, int W, c
   write_npy(path, c[3], c[2], 3, out.data());
 }
 
+// What a converge run costs, measured before it starts: one render call of n
+// spp takes about overhead + n * per_spp seconds (per technique).
+struct CallCost {
+  double overhead = 0, per_spp = 0;
+  double seconds(double calls, double spp) const { return calls * overhead + spp * per_spp; }
+};
+
+// Times a 1-spp and (when that was quick) an 8-spp render of the frame.
+CallCost measure_cost(Backend& b, const FrameSpec& f, int W, int H) {
+  auto timed = [&](uint32_t spp) {
+    Film film(W, H);
+    auto t0 = std::chrono::steady_clock::now();
+    b.render(f, film, 0, spp);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  timed(1);  // warm-up (first launches, caches)
+  const double one = timed(1);
+  CallCost c;
+  if (one > 0.5) {
+    c.per_spp = one;
+    return c;
+  }
+  const double eight = timed(8);
+  c.per_spp = std::max((eight - one) / 7, 0.0);
+  c.overhead = std::max(one - c.per_spp, 0.0);
+  if (c.per_spp == 0) c.per_spp = one / 8;
+  return c;
+}
+
 }  // namespace
 
 ConvergeResult run_converge(const ConvergeOptions& a) {
+  // Outputs first: a folder that cannot be written is found before any work.
+  const std::string& out = a.out;  // "": write no files but the cached reference
+  const std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
+  if (!a.estimate_only) {
+    if (!out.empty()) check_output_folder(out, "--out");
+    check_output_folder(cache, "--cache");
+  }
   std::vector<std::string> overrides = a.sets;
   if (a.width) overrides.push_back("render.width=" + std::to_string(a.width));
   if (a.height) overrides.push_back("render.height=" + std::to_string(a.height));
   std::string source;
   json doc = load_scene_json(a.scene, overrides, &source);
   Scene scene = load_scene(a.scene, overrides);
+  if (a.verbose)
+    for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   const int W = scene.render.width, H = scene.render.height;
   std::vector<Strategy> strategy_list;
   for (const auto& s : a.strategies) strategy_list.push_back(parse_strategy(s, "--strategies"));
@@ -105,10 +145,13 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     throw std::invalid_argument("converge: --crop must be x,y,w,h inside the " + std::to_string(W) + "x" +
                                 std::to_string(H) + " image");
 
-  const std::string& out = a.out;  // "": write no files but the cached reference
-  if (!out.empty()) fs::create_directories(out);
-  std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
-  fs::create_directories(cache);
+  // Two films (a render and the reference's), four float images (reference,
+  // its variance, a render's mean, the mask's) and one image being written.
+  check_memory(scene.source + ": converge at " + std::to_string(W) + "x" + std::to_string(H),
+               {{"films", 2 * film_bytes(W, H)},
+                {"images", 4 * uint64_t(W) * uint64_t(H) * 12},
+                {"writing images", image_write_bytes(W, H)},
+                {"acceleration structures", a.backend == "optix" ? 0 : cpu_backend_bytes(scene)}});
 
   BackendOptions opts;
   opts.threads = a.threads;
@@ -126,23 +169,67 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     };
   };
 
-  // --- Ground truth (cached) --------------------------------------------------
-  // The key covers everything that changes the expected image and its noise:
-  // the scene document after overrides (geometry, camera, resolution, depth),
-  // the reference spp and strategy. Seed 0x5EED is kept for references only.
-  // References select lights by power whatever the runs do (an unbiased
-  // method, and the same reference for every method compared).
+  // The ground truth's cache key covers everything that changes the expected
+  // image and its noise: the scene document after overrides (geometry, camera,
+  // resolution, depth), the reference spp and technique. Seed 0x5EED is kept for
+  // references only. References select lights by power whatever the runs do
+  // (an unbiased method, and the same reference for every method compared).
   const uint32_t kRefSeed = 0x5EED;
   json key_doc = doc;
   if (key_doc.contains("render") && key_doc["render"].is_object())
     for (const char* k : {"spp", "strategy", "mis", "seed", "light_selection", "restir"}) key_doc["render"].erase(k);
   std::ostringstream key;
   key << std::hex << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(ref_technique));
-  std::string ref_path = cache + "/ref-" + key.str() + ".exr";
-  std::string ref_var_path = cache + "/ref-" + key.str() + "_var.exr";
+  const std::string ref_path = cache + "/ref-" + key.str() + ".exr";
+  const std::string ref_var_path = cache + "/ref-" + key.str() + "_var.exr";
+  const bool cached = fs::exists(ref_path) && fs::exists(ref_var_path);
+
+  std::vector<int> spps;
+  for (int s = 1; s <= a.max_spp; s *= 2) spps.push_back(s);
+
+  // --- How long it will take -----------------------------------------------------
+  // Each technique's cost per render call, measured; then the reference (in
+  // calls of 256 spp), the 16-spp light mask, and every technique x seed x spp.
+  double estimate = 0;
+  {
+    FrameSpec f = frame_spec(scene);
+    f.integrator.strategy = ref_technique.strategy;
+    f.integrator.mis = ref_technique.mis;
+    const CallCost ref_cost = measure_cost(*backend, f, W, H);
+    if (!cached) estimate += ref_cost.seconds(std::ceil(a.reference_spp / 256.0), a.reference_spp);
+    estimate += ref_cost.seconds(1, 16);
+    double spp_total = 0;
+    for (int s : spps) spp_total += s;
+    for (const Technique& tq : techniques) {
+      f.integrator.strategy = tq.strategy;
+      f.integrator.mis = tq.mis;
+      const bool same = tq.strategy == ref_technique.strategy && tq.mis == ref_technique.mis;
+      const CallCost c = same ? ref_cost : measure_cost(*backend, f, W, H);
+      estimate += c.seconds(double(spps.size()) * a.seeds, spp_total * a.seeds);
+    }
+  }
+  log("converge: estimated run time %s on %s (%s): reference %d spp (%s), %zu techniques x %d seeds x 1..%d spp at "
+      "%dx%d\n",
+      format_duration(estimate).c_str(), backend->name().c_str(), backend->device_name().c_str(), a.reference_spp,
+      cached ? "cached" : "to render", techniques.size(), a.seeds, spps.back(), W, H);
+  if (a.estimate_only) {
+    ConvergeResult r;
+    r.summary = {{"estimated_seconds", estimate}, {"backend", backend->name()}, {"device", backend->device_name()},
+                 {"reference_cached", cached}};
+    return r;
+  }
+  if (backend->name() == "cpu" && estimate > kConvergeConfirmSeconds && !a.yes)
+    throw std::invalid_argument("converge: the estimated run time, " + format_duration(estimate) +
+                                " on the CPU, is more than an hour: pass --yes to run it (or lower --reference-spp, "
+                                "--max-spp, --seeds or the resolution)");
+  if (!out.empty()) fs::create_directories(out);
+  fs::create_directories(cache);
+  uint64_t nonfinite = 0;  // samples left out, over every render
+  auto count_nonfinite = [&]() { nonfinite += backend->last_render_stats().nonfinite; };
+
+  // --- Ground truth (cached) --------------------------------------------------
   std::vector<float> ref, ref_var;
   double ref_seconds = 0;
-  bool cached = fs::exists(ref_path) && fs::exists(ref_var_path);
   if (cached) {
     int w, h, wv, hv;
     ref = read_exr(ref_path, &w, &h);
@@ -164,13 +251,13 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     for (uint32_t s = 0; s < uint32_t(a.reference_spp); s += chunk) {
       uint32_t n = std::min<uint32_t>(chunk, uint32_t(a.reference_spp) - s);
       backend->render(f, film, s, n, progress_to(bar, uint64_t(W) * H * s, total));
+      count_nonfinite();
     }
     ref_seconds = bar.finish();
     ref = film.mean();
     ref_var = film.variance_of_mean();
     write_image(ref_var_path, W, H, ref_var);
-    write_image(ref_path + ".tmp.exr", W, H, ref);
-    fs::rename(ref_path + ".tmp.exr", ref_path);  // last: a reference exists only when complete
+    write_image(ref_path, W, H, ref);  // atomic, and last: a reference exists only when complete
     log("reference: %s (%d spp, %s)\n", ref_path.c_str(), a.reference_spp, format_duration(ref_seconds).c_str());
   }
   if (!out.empty()) write_image(out + "/reference.png", W, H, ref);
@@ -185,6 +272,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     f.integrator.max_depth = 0;
     Film film(W, H);
     backend->render(f, film, 0, 16, a.progress);
+    count_nonfinite();
     auto m = film.mean();
     for (size_t p = 0; p < mask.size(); ++p)
       if (m[3 * p] + m[3 * p + 1] + m[3 * p + 2] > 0.f) mask[p] = 0;
@@ -208,8 +296,6 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   floor_nolight = n_nolight ? std::sqrt(floor_nolight / double(n_nolight)) : 0.0;
 
   // --- Convergence runs ------------------------------------------------------------
-  std::vector<int> spps;
-  for (int s = 1; s <= a.max_spp; s *= 2) spps.push_back(s);
   ConvergeResult result;
   json& summary = result.summary;
   summary["scene"] = a.scene;
@@ -270,6 +356,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         f.seed = uint32_t(seed);
         Film film(W, H);
         double t = timed_render(*backend, f, film, 0, uint32_t(spp), a.progress);
+        count_nonfinite();
         auto img = film.mean();
         ErrorMetrics all = error_metrics(img, ref), nolight = error_metrics(img, ref, &mask);
         result.measurements.push_back(
@@ -319,11 +406,13 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   }
   double secs = bar.finish();
   summary["seconds"] = secs;
+  summary["estimated_seconds"] = estimate;
+  summary["nonfinite_samples"] = nonfinite;
   if (!out.empty()) {
-    std::ofstream csv(out + "/measurements.csv");
-    csv << converge_csv_header();
-    for (const ConvergeMeasurement& m : result.measurements) csv << converge_csv_row(a.scene, m);
-    std::ofstream(out + "/summary.json") << summary.dump(2) << "\n";
+    std::string csv = converge_csv_header();
+    for (const ConvergeMeasurement& m : result.measurements) csv += converge_csv_row(a.scene, m);
+    write_file_atomic(out + "/measurements.csv", csv);
+    write_file_atomic(out + "/summary.json", summary.dump(2) + "\n");
   }
 
   // One line per strategy: what a person wants to know first.

@@ -34,6 +34,8 @@ struct ConvergeOptions {
   double threshold = 0.05;
   std::vector<int> crop;  // x, y, w, h; empty: around the light
   bool verbose = true;    // notes and progress bars on stderr
+  bool yes = false;            // run even when the estimate on the CPU exceeds kConvergeConfirmSeconds
+  bool estimate_only = false;  // measure and return the estimate (summary: estimated_seconds, ...), run nothing
   // Called during every render (see Backend::render); may throw to stop the
   // experiment (the Python module's Ctrl-C).
   ProgressFn progress;
@@ -45,6 +47,9 @@ struct ConvergeMeasurement {
   int spp = 0, seed = 0;
   double time_ms = 0, rmse = 0, rmse_nolight = 0, relmse = 0, relmse_nolight = 0;
 };
+
+// Past this estimated time on the CPU, run_converge() asks for `yes`.
+constexpr double kConvergeConfirmSeconds = 3600;
 
 struct ConvergeResult {
   std::vector<ConvergeMeasurement> measurements;

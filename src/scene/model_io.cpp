@@ -24,6 +24,8 @@ namespace {
 constexpr size_t kMaxWarningsPerModel = 12;
 // Largest element count of any one glTF accessor (and vertex count of an OBJ).
 constexpr size_t kMaxElements = size_t(1) << 28;
+// Deepest glTF node hierarchy walked (the walk recurses).
+constexpr int kMaxNodeDepth = 256;
 
 std::string one_line(std::string s) {
   while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' ')) s.pop_back();
@@ -356,6 +358,7 @@ struct GltfLoader {
   std::map<std::pair<int, int>, int32_t> textures;  // (glTF texture, format) -> scene texture
   bool warned_blend = false;
   size_t degenerate = 0;  // zero-area triangles dropped, over all meshes
+  uint64_t placed_triangles = 0;  // over all placements so far
 
   // Accessor `ai`, checked against its buffer; `what` names it in messages.
   Accessor accessor(int ai, std::initializer_list<int> types, std::initializer_list<int> comps, const std::string& what) {
@@ -599,12 +602,50 @@ struct GltfLoader {
     return t;
   }
 
-  void visit(int ni, const Affine& parent, std::vector<int>& stack, LoadedModel& out) {
+  // The node hierarchy must be a forest (glTF 2.0: every node has at most one
+  // parent, no cycles, and a scene lists only roots). Checked before the walk,
+  // so that the walk visits each node at most once: a small file whose nodes
+  // list the same children over and over cannot expand into billions of
+  // placements. Returns the parent of each node (-1: none).
+  std::vector<int> check_forest() {
+    const size_t n = model.nodes.size();
+    std::vector<int> parent(n, -1);
+    auto node = [](size_t i) { return "node " + std::to_string(i); };
+    for (size_t p = 0; p < n; ++p)
+      for (int c : model.nodes[p].children) {
+        if (c < 0 || size_t(c) >= n)
+          ctx.fail("'" + ctx.path + "': " + node(p) + " lists child " + std::to_string(c) + ", which does not exist");
+        if (parent[size_t(c)] == int(p))
+          ctx.fail("'" + ctx.path + "': " + node(p) + " lists child " + std::to_string(c) + " twice");
+        if (parent[size_t(c)] >= 0)
+          ctx.fail("'" + ctx.path + "': " + node(size_t(c)) + " has two parents (nodes " +
+                   std::to_string(parent[size_t(c)]) + " and " + std::to_string(p) +
+                   "): the node hierarchy must be a tree (penumbra does not instance a node twice)");
+        parent[size_t(c)] = int(p);
+      }
+    // With one parent each, a cycle is a closed chain of parents.
+    std::vector<uint8_t> state(n, 0);  // 0: not seen, 1: on the current chain, 2: done
+    std::vector<size_t> chain;
+    for (size_t i = 0; i < n; ++i) {
+      chain.clear();
+      int k = int(i);
+      while (k >= 0 && state[size_t(k)] == 0) {
+        state[size_t(k)] = 1;
+        chain.push_back(size_t(k));
+        k = parent[size_t(k)];
+      }
+      if (k >= 0 && state[size_t(k)] == 1)
+        ctx.fail("'" + ctx.path + "': the node hierarchy has a cycle through " + node(size_t(k)));
+      for (size_t c : chain) state[c] = 2;
+    }
+    return parent;
+  }
+
+  void visit(int ni, const Affine& parent, int depth, LoadedModel& out) {
     if (ni < 0 || size_t(ni) >= model.nodes.size()) ctx.fail("'" + ctx.path + "': node " + std::to_string(ni) + " does not exist");
-    if (std::find(stack.begin(), stack.end(), ni) != stack.end())
-      ctx.fail("'" + ctx.path + "': the node hierarchy has a cycle through node " + std::to_string(ni));
-    if (stack.size() > 256) ctx.fail("'" + ctx.path + "': the node hierarchy is deeper than 256");
-    if (out.placements.size() > kMaxElements) ctx.fail("'" + ctx.path + "': too many mesh nodes");
+    if (depth > kMaxNodeDepth)
+      ctx.fail("'" + ctx.path + "': node " + std::to_string(ni) + " is deeper than " + std::to_string(kMaxNodeDepth) +
+               " levels in the node hierarchy");
     const tinygltf::Node& n = model.nodes[size_t(ni)];
     const Affine world = compose(parent, node_local(n));
     if (n.mesh >= 0) {
@@ -612,10 +653,18 @@ struct GltfLoader {
       int64_t mi = mesh(n.mesh);
       bool ok = false;
       inverse(world, &ok);
-      if (mi >= 0 && (!ok || !affine_finite(world)))
+      if (mi >= 0 && (!ok || !affine_finite(world))) {
         ctx.warn("node " + std::to_string(ni) + ": its transform is not invertible or not finite; skipped");
-      else if (mi >= 0)
+      } else if (mi >= 0) {
         out.placements.push_back(ModelPlacement{uint32_t(mi), world});
+        placed_triangles += ctx.s.meshes[size_t(mi)].indices.size();
+        if (out.placements.size() > kMaxInstances)
+          ctx.fail("'" + ctx.path + "': node " + std::to_string(ni) + ": more than " + std::to_string(kMaxInstances) +
+                   " mesh placements, penumbra's limit");
+        if (placed_triangles > kMaxPlacedTriangles)
+          ctx.fail("'" + ctx.path + "': node " + std::to_string(ni) + ": more than " +
+                   std::to_string(kMaxPlacedTriangles) + " triangles placed, penumbra's limit");
+      }
     }
     if (n.camera >= 0 && !out.has_camera && size_t(n.camera) < model.cameras.size() &&
         model.cameras[size_t(n.camera)].type == "perspective") {
@@ -630,9 +679,7 @@ struct GltfLoader {
         out.camera.fov = fov;
       }
     }
-    stack.push_back(ni);
-    for (int child : n.children) visit(child, world, stack, out);
-    stack.pop_back();
+    for (int child : n.children) visit(child, world, depth + 1, out);
   }
 
   LoadedModel load() {
@@ -658,20 +705,28 @@ struct GltfLoader {
       if (!kSupported.count(e)) ctx.fail("'" + ctx.path + "' requires the glTF extension " + e + ", which penumbra does not support");
     LoadedModel out;
     out.path = ctx.path;
+    const std::vector<int> parent = check_forest();
     std::vector<int> roots;
     if (!model.scenes.empty()) {
       int si = model.defaultScene >= 0 && size_t(model.defaultScene) < model.scenes.size() ? model.defaultScene : 0;
       roots = model.scenes[size_t(si)].nodes;
+      std::vector<bool> listed(model.nodes.size(), false);
+      for (int r : roots) {
+        if (r < 0 || size_t(r) >= model.nodes.size())
+          ctx.fail("'" + ctx.path + "': scene " + std::to_string(si) + " lists node " + std::to_string(r) +
+                   ", which does not exist");
+        if (parent[size_t(r)] >= 0)
+          ctx.fail("'" + ctx.path + "': scene " + std::to_string(si) + " lists node " + std::to_string(r) +
+                   " as a root, but it is a child of node " + std::to_string(parent[size_t(r)]));
+        if (listed[size_t(r)])
+          ctx.fail("'" + ctx.path + "': scene " + std::to_string(si) + " lists node " + std::to_string(r) + " twice");
+        listed[size_t(r)] = true;
+      }
     } else {  // no scene: every node that is nobody's child
-      std::vector<bool> child(model.nodes.size(), false);
-      for (const auto& n : model.nodes)
-        for (int c : n.children)
-          if (c >= 0 && size_t(c) < child.size()) child[size_t(c)] = true;
       for (size_t i = 0; i < model.nodes.size(); ++i)
-        if (!child[i]) roots.push_back(int(i));
+        if (parent[i] < 0) roots.push_back(int(i));
     }
-    std::vector<int> stack;
-    for (int r : roots) visit(r, Affine(), stack, out);
+    for (int r : roots) visit(r, Affine(), 0, out);
     if (degenerate > 0) ctx.warn(std::to_string(degenerate) + " degenerate (zero-area) triangle(s) dropped");
     for (const auto& kv : meshes)
       if (kv.second >= 0) out.meshes.push_back(uint32_t(kv.second));
@@ -694,6 +749,10 @@ int32_t scene_texture(Scene& s, const std::string& key, TexelFormat format, bool
     *error = "unexpected pixel format";
     return -1;
   }
+  if (img.repaired_texels > 0)
+    s.warnings.push_back(key + ": " + std::to_string(img.repaired_texels) + " of " +
+                         std::to_string(size_t(img.width) * size_t(img.height)) +
+                         " texels are NaN, infinite or negative; those channels are treated as 0");
   TextureImage t;
   t.path = key;
   t.width = img.width;

@@ -101,8 +101,10 @@ void parse_camera(const Node& n, Scene& s) {
   if (n.has("fov")) s.camera.fov = n.at("fov").real(0.1, 179.0);
   Vec3 f = s.camera.target - s.camera.eye;
   if (!(length(f) > 0.f)) n.at("target").fail("must differ from camera.eye");
-  if (!(length(cross(normalize(f), s.camera.up)) > 1e-4f))
-    n.at("up").fail("must not be parallel to the viewing direction (and not zero)");
+  if (!(length(cross(normalize(f), s.camera.up)) > 1e-4f)) {
+    if (n.has("up")) n.at("up").fail("must not be parallel to the viewing direction (and not zero)");
+    n.at("target").fail("the viewing direction is parallel to the default up [0, 1, 0]: give camera.up");
+  }
 }
 
 // "restir": {"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "source"}
@@ -386,6 +388,11 @@ void parse_models(const Node& n, Scene& s, const std::map<std::string, uint32_t>
         for (uint32_t mesh : it->second.meshes) s.meshes[mesh].face_materials.clear();
     }
     const LoadedModel& model = it->second;
+    const uint64_t adding = uint64_t(placements.size()) * model.placements.size();
+    if (s.instances.size() + adding > kMaxInstances)
+      m.fail("places " + std::to_string(adding) + " meshes (" + std::to_string(placements.size()) + " transforms x " +
+             std::to_string(model.placements.size()) + " mesh nodes), which brings the scene beyond " +
+             std::to_string(kMaxInstances) + " instances, penumbra's limit");
     for (const Affine& t : placements) {
       for (const ModelPlacement& pl : model.placements) {
         uint32_t mesh = pl.mesh;
@@ -635,6 +642,41 @@ void substitute_parameters(json& j, const json& defaults, const std::string& pat
     for (size_t i = 0; i < j.size(); ++i) substitute_parameters(j[i], defaults, path + "[" + std::to_string(i) + "]", source);
   }
 }
+
+// The limits of scene.h over the whole scene, before finalize_scene() makes a
+// light of every placed emissive triangle.
+void check_scene_limits(const Scene& s) {
+  auto fail = [&](const std::string& msg) -> void { throw SceneError(s.source + ": " + msg); };
+  if (s.instances.size() > kMaxInstances)
+    fail(std::to_string(s.instances.size()) + " mesh instances, more than penumbra's limit of " +
+         std::to_string(kMaxInstances));
+  uint64_t placed = 0;
+  for (const Instance& inst : s.instances) placed += s.meshes[inst.mesh].indices.size();
+  if (placed > kMaxPlacedTriangles)
+    fail(std::to_string(placed) + " triangles placed, more than penumbra's limit of " +
+         std::to_string(kMaxPlacedTriangles));
+  // Emissive faces of each mesh with per-face materials, counted once a mesh.
+  std::vector<int64_t> mesh_emissive(s.meshes.size(), -1);
+  uint64_t emissive = 0;
+  for (const Instance& inst : s.instances) {
+    const TriangleMesh& m = s.meshes[inst.mesh];
+    if (inst.light >= 0) continue;  // a quad light is one light already
+    if (m.face_materials.empty()) {
+      emissive += is_black(s.materials[inst.material].emission) ? 0 : m.indices.size();
+      continue;
+    }
+    int64_t& n = mesh_emissive[inst.mesh];
+    if (n < 0) {
+      n = 0;
+      for (uint32_t fm : m.face_materials) n += is_black(s.materials[fm].emission) ? 0 : 1;
+    }
+    emissive += uint64_t(n);
+  }
+  if (emissive > kMaxTriangleLights)
+    fail(std::to_string(emissive) + " emissive triangles placed (each one a light), more than penumbra's limit of " +
+         std::to_string(kMaxTriangleLights));
+}
+
 }  // namespace
 
 Scene parse_scene(const json& original, const std::string& source, const std::string& base_dir) {
@@ -693,7 +735,11 @@ Scene parse_scene(const json& original, const std::string& source, const std::st
   else if (model_camera) s.camera = camera;
   else root.fail("missing required key 'camera' (and no model file has a perspective camera)");
   if (s.spheres.empty() && s.instances.empty()) root.fail("the scene has no shapes and no lights");
+  check_scene_limits(s);
   finalize_scene(s);
+  if (s.lights.empty() && is_black(s.background))
+    s.warnings.push_back(s.source + ": the scene has no light (no light, no emissive material, no environment, and a "
+                                    "black background): the image will be black");
   return s;
 }
 
@@ -745,8 +791,9 @@ void apply_override(json& doc, const std::string& assignment, const std::string&
       if (idx >= cur->size()) fail("index " + p + " is out of range (size " + std::to_string(cur->size()) + ")");
       cur = &(*cur)[idx];
     } else if (cur->is_object()) {
-      // Blocks whose every key is optional are created when missing
-      // (render.restir.candidates on a scene without a restir block).
+      // "render" is optional and so is each of its keys, "render.restir" too:
+      // an override creates them, so that render options work on scene files
+      // without them (render.restir.candidates on a scene without that block).
       if (!last && !cur->contains(p)) {
         if (!is_optional_block(parts, i)) fail("no field '" + p + "' to descend into");
         (*cur)[p] = json::object();

@@ -26,6 +26,13 @@
 
 namespace pn {
 
+// Limits of one scene (docs/scene-format.md). Instancing lets a small file
+// describe a huge scene; beyond these, loading stops with one line naming the
+// file (and, for model files, the node) instead of exhausting memory or time.
+constexpr size_t kMaxInstances = size_t(1) << 20;              // placements of meshes: 1,048,576
+constexpr uint64_t kMaxPlacedTriangles = uint64_t(1) << 32;    // triangles over all placements: 4,294,967,296
+constexpr size_t kMaxTriangleLights = size_t(1) << 22;         // placed emissive triangles: 4,194,304
+
 // Any problem with a scene or its overrides. what() is one line:
 // "<file>: <field>: <problem>". Errors raised with the three parts keep them
 // (file(), field()) for callers that report them apart (the Python module).

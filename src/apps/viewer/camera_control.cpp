@@ -8,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "io/output.h"
+
 namespace pn::viewer {
 namespace {
 
@@ -115,9 +117,7 @@ void save_camera(const std::string& path, const CameraDesc& c, const nlohmann::j
     doc = whole_scene;
   }
   doc["camera"] = camera_to_json(c);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << doc.dump(2) << "\n";
-  if (!out) throw std::runtime_error(path + ": cannot write the scene file");
+  write_file_atomic(path, doc.dump(2) + "\n");
 }
 
 CameraDesc load_camera(const std::string& path) { return load_scene(path).camera; }

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "io/image.h"
+#include "io/output.h"
 #include "scene/scene.h"
 
 namespace pn::viewer {
@@ -74,17 +75,18 @@ Check light_selection() {
     parse_light_selection(v.get<std::string>(), where);
   };
 }
-Check file(bool image, bool png_only = false) {
+// A file an action reads, or writes (`output`: checked now, before the first
+// frame, as every output of a command is).
+Check file(bool output, bool image, bool png_only = false) {
   return [=](const ojson& v, const std::string& where) {
     if (!v.is_string() || v.get<std::string>().empty()) fail(where, "must be a file name (got " + v.dump() + ")");
     std::string f = v.get<std::string>();
     if (png_only && (f.size() < 4 || f.substr(f.size() - 4) != ".png")) fail(where, "must name a .png file (got " + f + ")");
-    if (image) {
-      try {
-        check_image_path(f);
-      } catch (const std::exception& e) {
-        fail(where, e.what());
-      }
+    try {
+      if (image) check_image_path(f);
+      if (output) check_output_file(f, "the file");
+    } catch (const std::exception& e) {
+      fail(where, e.what());
     }
   };
 }
@@ -121,8 +123,8 @@ const std::map<std::string, Check>& checks() {
       {"split", boolean()},           {"split_left", strategy()},
       {"split_right", strategy()},    {"divider", number_in(0, 1)},
       {"equal_time", boolean()},      {"panel", boolean()},
-      {"screenshot", file(true)},     {"window_screenshot", file(false, true)},
-      {"save_camera", file(false)},   {"load_camera", file(false)},
+      {"screenshot", file(true, true)},     {"window_screenshot", file(true, false, true)},
+      {"save_camera", file(true, false)},   {"load_camera", file(false, false)},
       {"quit", boolean(true)},
   };
   return table;

@@ -54,6 +54,7 @@ Command add_view_command(CLI::App& app) {
       ->check(CLI::Range(16, 16384));
   sub->add_option("--scale", a->o.scale,
                   "Resolution scale: image pixels per window pixel (default 1; on the CPU at most ~640x360 pixels)")
+      ->check(finite_number())
       ->check(CLI::Range(0.05f, 4.f));
   add_integrator_options(sub, &a->integrator);
   sub->add_option("--spp-per-frame", a->o.spp_per_frame, "Samples per pixel added each frame")
@@ -63,6 +64,7 @@ Command add_view_command(CLI::App& app) {
   sub->add_option("--seed", a->seed, "Random seed, 0..4294967295 (default: the scene's)");
   sub->add_option("--exposure", a->o.exposure, "Display exposure in stops")
       ->capture_default_str()
+      ->check(finite_number())
       ->check(CLI::Range(-64.f, 64.f));
   sub->add_option("--threads", a->o.threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   sub->add_option("--split", a->o.split, "Start in split screen: LEFT,RIGHT strategies, e.g. area,solid-angle");

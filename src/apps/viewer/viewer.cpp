@@ -25,13 +25,14 @@
 #include <imgui_stdlib.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
-#include <stb/stb_image_write.h>
 
+#include "apps/exit_status.h"
 #include "apps/viewer/camera_control.h"
 #include "apps/viewer/camera_path.h"
 #include "apps/viewer/gl_display.h"
 #include "apps/viewer/progressive.h"
 #include "io/image.h"
+#include "io/output.h"
 #include "render/backend.h"
 #include "scene/scene.h"
 
@@ -222,11 +223,15 @@ class Viewer {
   size_t next_action_ = 0;
   bool quit_ = false;
   std::vector<std::string> pending_window_shots_;
+  uint64_t nonfinite_ = 0;  // samples left out by the backend, over the session
 };
 
 Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   // Everything that can fail without a display fails before the window opens.
-  if (!opt_.screenshot.empty()) check_image_path(opt_.screenshot);
+  if (!opt_.screenshot.empty()) {  // before any work, as every output
+    check_image_path(opt_.screenshot);
+    check_output_file(opt_.screenshot, "--screenshot");
+  }
   if (!opt_.camera_path.empty()) path_ = load_camera_path(opt_.camera_path);
   scene_name_ = find_builtin(opt_.scene) ? opt_.scene : std::filesystem::path(opt_.scene).stem().string();
   load({});
@@ -497,6 +502,13 @@ double Viewer::render_samples() {
     auto ts = Clock::now();
     sides_[i].image->add_samples(n[i]);
     sides_[i].seconds += ms_since(ts) * 1e-3;
+    // Samples that were NaN or infinite: left out by the backend; said once, and in the exit status.
+    const RenderStats st = backend_->last_render_stats();
+    if (st.nonfinite > 0 && nonfinite_ == 0) {
+      std::fprintf(stderr, "warning: %s: %s\n", scene_->source.c_str(), describe_nonfinite(st).c_str());
+      status_ = describe_nonfinite(st);
+    }
+    nonfinite_ += st.nonfinite;
   }
   return ms_since(t0);
 }
@@ -560,8 +572,8 @@ void Viewer::window_screenshot(const std::string& path) {
   int fw, fh;
   glfwGetFramebufferSize(window_, &fw, &fh);
   std::vector<unsigned char> px = read_framebuffer_rgb(fw, fh);
-  if (!stbi_write_png(path.c_str(), fw, fh, 3, px.data(), fw * 3))
-    throw std::runtime_error(path + ": cannot write PNG (does the folder exist and is it writable?)");
+  const std::vector<uint8_t> png = encode_png(path, fw, fh, 3, px.data());
+  write_file_atomic(path, png.data(), png.size());
   std::fprintf(stderr, "wrote %s (the window, %dx%d)\n", path.c_str(), fw, fh);
 }
 
@@ -936,7 +948,13 @@ int Viewer::run() {
                  render, display, total / n - render - display, display_path_name(display_path_.path),
                  backend_->name().c_str());
   }
-  return 0;
+  if (nonfinite_ > 0) {
+    std::fprintf(stderr,
+                 "warning: %s: %llu samples were NaN or infinite and left out over the session (exit status %d)\n",
+                 scene_->source.c_str(), (unsigned long long)nonfinite_, int(kExitNonFinite));
+    return kExitNonFinite;
+  }
+  return kExitOk;
 }
 
 }  // namespace

@@ -113,7 +113,8 @@ class Barrier {
 
 class CpuBackend final : public Backend {
  public:
-  CpuBackend(const Scene& scene, int threads) : scene_(scene), host_(make_host_view(scene)), view_(host_->view) {
+  // The scene must outlive the backend: its arrays are traced in place.
+  CpuBackend(const Scene& scene, int threads) : host_(make_host_view(scene)), view_(host_->view) {
     filter_.view = &view_;
     filter_.instance_of_geom = &instance_of_geom_;
     threads_ = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -128,6 +129,7 @@ class CpuBackend final : public Backend {
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
       const TriangleMesh& m = scene.meshes[mi];
       RTCScene ms = rtcNewScene(device_);
+      rtcSetSceneFlags(ms, RTC_SCENE_FLAG_ROBUST);  // watertight: no ray slips between two triangles of a mesh
       rtcSetSceneBuildQuality(ms, RTC_BUILD_QUALITY_HIGH);
       RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
       auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
@@ -153,6 +155,7 @@ class CpuBackend final : public Backend {
       mesh_scenes_.push_back(ms);
     }
     rtc_ = rtcNewScene(device_);
+    rtcSetSceneFlags(rtc_, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(rtc_, RTC_BUILD_QUALITY_HIGH);
     for (size_t ii = 0; ii < scene.instances.size(); ++ii) {
       const Instance& inst = scene.instances[ii];
@@ -244,18 +247,18 @@ class CpuBackend final : public Backend {
               const ProgressFn& progress) override {
     const int W = frame.camera.width, H = frame.camera.height;
     if (film.width() != W || film.height() != H) throw std::logic_error("film size differs from the camera's");
+    stats_ = RenderStats();
     if (restir_frame_passes(frame.integrator)) return render_restir(frame, film, first_sample, count, progress);
     const uint64_t total = uint64_t(W) * H * count;
     std::atomic<uint64_t> done{0};
-    std::atomic<uint64_t> nonfinite{0};
     Tracer tracer{this};
     double* sum = film.sum();
     double* sum_sq = film.sum_sq();
     for_each_tile(W, H, 1, progress, [&](uint32_t, int x0, int y0, int x1, int y1) {
-      uint64_t bad = 0;
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
           double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+          uint64_t bad = 0;
           for (uint32_t i = 0; i < count; ++i) {
             Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
             if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
@@ -272,12 +275,14 @@ class CpuBackend final : public Backend {
             sum[o + c] += s[c];
             sum_sq[o + c] += s2[c];
           }
+          if (bad > 0) note_nonfinite(x, y, W, bad);
         }
-      nonfinite += bad;
       return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0) * count, total);
     });
-    finish(film, count, nonfinite.load());
+    film.add_samples(count);
   }
+
+  RenderStats last_render_stats() const override { return stats_; }
 
  private:
   // Runs fn(phase, x0, y0, x1, y1) over the W x H frame's 16x16 tiles for
@@ -329,11 +334,11 @@ class CpuBackend final : public Backend {
     if (stop) std::rethrow_exception(stop);
   }
 
-  void finish(Film& film, uint32_t count, uint64_t nonfinite) {
-    film.add_samples(count);
-    if (nonfinite > 0)
-      throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite) +
-                               " samples were NaN or infinite (a bug in penumbra: please report the scene)");
+  // Non-finite samples are left out, counted and located (RenderStats).
+  void note_nonfinite(int x, int y, int W, uint64_t bad) {
+    std::lock_guard<std::mutex> lock(nonfinite_mutex_);
+    stats_.nonfinite += bad;
+    note_nonfinite_pixel(stats_, x, y, W);
   }
 
   // restir with spatial reuse (core/restir.h): per camera sample, the primary
@@ -349,7 +354,7 @@ class CpuBackend final : public Backend {
     std::vector<RestirPixel> gbuffer(pixels);
     std::vector<Reservoir> reservoirs[2] = {std::vector<Reservoir>(pixels), std::vector<Reservoir>(pixels)};
     const uint64_t total = uint64_t(pixels) * count;
-    std::atomic<uint64_t> nonfinite{0}, done{0};
+    std::atomic<uint64_t> done{0};
     Tracer tracer{this};
     double* sum = film.sum();
     double* sum_sq = film.sum_sq();
@@ -369,18 +374,17 @@ class CpuBackend final : public Backend {
         Reservoir* out = reservoirs[step % 2].data();
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x)
-            out[size_t(y) * W + x] =
-                restir_spatial_reuse(tracer, view_, s.restir, gbuffer.data(), in, W, H, x, y, sample, frame.seed, step - 1);
+            out[size_t(y) * W + x] = restir_spatial_reuse(tracer, view_, s.restir, gbuffer.data(), in, W, H, x, y,
+                                                          sample, frame.seed, step - 1);
         return std::make_pair(uint64_t(0), uint64_t(0));
       }
       const Reservoir* final_reservoirs = reservoirs[passes % 2].data();  // shading
-      uint64_t bad = 0;
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
           const size_t p = size_t(y) * W + x;
           const Vec3 L = gbuffer[p].L + restir_shade(tracer, view_, s, gbuffer[p], final_reservoirs[p]);
           if (!is_finite(L)) {
-            ++bad;
+            note_nonfinite(x, y, W, 1);
             continue;
           }
           for (int c = 0; c < 3; ++c) {
@@ -388,18 +392,18 @@ class CpuBackend final : public Backend {
             sum_sq[3 * p + c] += double(L[c]) * L[c];
           }
         }
-      nonfinite += bad;
       return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0), total);
     });
-    finish(film, count, nonfinite.load());
+    film.add_samples(count);
   }
 
-  const Scene& scene_;
   std::unique_ptr<HostSceneView> host_;
   SceneView view_;
   FilterData filter_;
   std::vector<int> instance_of_geom_;  // top-level geometry ID -> instance index (-1: spheres)
   int threads_ = 1;
+  RenderStats stats_;  // of the last render()
+  std::mutex nonfinite_mutex_;
   RTCDevice device_ = nullptr;
   RTCScene rtc_ = nullptr;              // top level: instances and the sphere set
   std::vector<RTCScene> mesh_scenes_;  // one per TriangleMesh

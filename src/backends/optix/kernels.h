@@ -12,11 +12,13 @@ namespace optix {
 // Adds one launch's per-pixel sums (sum.xyz, sum_sq.xyz) into the progressive
 // double sums, laid out like Film (3 doubles a pixel, RGB), and adds the
 // launch's rays (sum.w) and non-finite samples (sum_sq.w) into counters[0] and
-// counters[1]. If rgba is not null, also tone-maps the new accumulation with
-// scale = 2^exposure / samples accumulated (see tonemap below).
+// counters[1], and the non-finite samples of each pixel into bad_pixels (one
+// count a pixel, so that the host can say which pixels had them). If rgba is
+// not null, also tone-maps the new accumulation with scale = 2^exposure /
+// samples accumulated (see tonemap below).
 cudaError_t launch_accumulate(const float4* sum, const float4* sum_sq, size_t pixels, double* acc_sum,
-                              double* acc_sum_sq, unsigned long long* counters, uchar4* rgba, float scale,
-                              int num_sms, cudaStream_t stream);
+                              double* acc_sum_sq, unsigned long long* counters, unsigned* bad_pixels, uchar4* rgba,
+                              float scale, int num_sms, cudaStream_t stream);
 
 // rgba = sRGB8(acc_sum * scale), alpha 255; the transfer function of
 // io/image.cpp's to_srgb8 (clamped to [0, 1], NaN to 0).

@@ -33,6 +33,7 @@
 #include "core/geometry.h"
 #include "core/restir.h"
 #include "core/scene_view.h"
+#include "render/resources.h"
 
 // The device programs, OptiX-IR embedded at build time (embed_file.cmake).
 extern const unsigned char penumbra_optix_ir[];
@@ -77,13 +78,6 @@ void check_optix(OptixResult r, const char* expr, const char* log = nullptr) {
 #define PN_OPTIX(call) check_optix((call), #call)
 #define PN_OPTIX_LOG(call, log) check_optix((call), #call, (log))
 
-std::string format_bytes(double b) {
-  char buf[64];
-  if (b >= 1024.0 * 1024 * 1024) std::snprintf(buf, sizeof buf, "%.2f GiB", b / (1024.0 * 1024 * 1024));
-  else if (b >= 1024.0 * 1024) std::snprintf(buf, sizeof buf, "%.1f MiB", b / (1024.0 * 1024));
-  else std::snprintf(buf, sizeof buf, "%.0f bytes", b);
-  return buf;
-}
 
 // Device-wide memory in use (all processes), by cudaMemGetInfo; 0 if unknown.
 uint64_t device_memory_used() {
@@ -204,9 +198,64 @@ struct SceneSize {
   cudaGetLastError();  // clear it
   size_t free_b = 0, total_b = 0;
   cudaMemGetInfo(&free_b, &total_b);
-  throw std::runtime_error("out of GPU memory: " + std::to_string(bytes) + " bytes (" + format_bytes(double(bytes)) +
-                           ") requested for " + what + ", " + format_bytes(double(free_b)) + " of " +
-                           format_bytes(double(total_b)) + " free; scene: " + scene.describe());
+  throw std::runtime_error("out of GPU memory: " + std::to_string(bytes) + " bytes (" + format_bytes(uint64_t(bytes)) +
+                           ") requested for " + what + ", " + format_bytes(uint64_t(free_b)) + " of " +
+                           format_bytes(uint64_t(total_b)) + " free; scene: " + scene.describe());
+}
+
+// Device memory of a scene, estimated on the host from its sizes. The
+// acceleration structures use per-primitive bounds that err high (OptiX
+// reports the exact sizes only through the device context, per build): a GAS
+// keeps about 64 bytes a triangle after compaction, and building the largest
+// one needs its temporary and uncompacted buffers (up to 256 bytes a
+// triangle) at once; the IAS about 256 bytes an instance with its build.
+struct DeviceEstimate {
+  uint64_t accels = 0, geometry = 0, textures = 0, frame = 0, fixed = 0;
+  int width = 0, height = 0;
+  uint64_t total() const { return accels + geometry + textures + frame + fixed; }
+  std::string describe() const {
+    return "acceleration structures " + format_bytes(accels) + ", geometry and scene arrays " +
+           format_bytes(geometry) + ", textures " + format_bytes(textures) + ", a " + std::to_string(width) + "x" +
+           std::to_string(height) + " frame " + format_bytes(frame) + ", pipeline " + format_bytes(fixed);
+  }
+};
+
+DeviceEstimate estimate_device_memory(const Scene& scene) {
+  DeviceEstimate e;
+  std::vector<bool> used(scene.meshes.size(), false);
+  for (const Instance& inst : scene.instances)
+    if (inst.mesh < used.size()) used[inst.mesh] = true;
+  uint64_t largest = 0;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    if (!used[m]) continue;
+    const TriangleMesh& mesh = scene.meshes[m];
+    const uint64_t tris = mesh.indices.size(), verts = mesh.positions.size();
+    const uint64_t per_vertex =
+        sizeof(Vec3) + (mesh.normals.empty() ? 0 : sizeof(Vec3)) + (mesh.uvs.empty() ? 0 : sizeof(Vec2));
+    // indices, face materials and face lights, one SBT index byte
+    e.geometry += verts * per_vertex + tris * (3 * sizeof(uint32_t) + 2 * sizeof(uint32_t) + 1);
+    e.accels += 64 * tris;
+    largest = std::max(largest, tris);
+  }
+  const uint64_t n_inst = scene.instances.size(), n_sph = scene.spheres.size();
+  e.accels += 256 * largest + 256 * (n_inst + 1) + 128 * n_sph;
+  e.geometry += n_inst * (sizeof(InstanceView) + 80) + n_sph * sizeof(SphereView) +
+                scene.lights.size() * (sizeof(Light) + sizeof(float)) + scene.materials.size() * sizeof(Material);
+  const Environment& env = scene.environment;
+  e.geometry += (env.conditional_func.size() + env.conditional_cdf.size() + env.marginal_func.size() +
+                 env.marginal_cdf.size()) * sizeof(float);
+  e.geometry += scene.light_bvh.bytes();  // the light BVH's nodes and trails
+  for (const TextureImage& t : scene.textures) e.textures += t.texels.size() + sizeof(TextureView);
+  // Per pixel: the launch's float4 sums (2 x 16), the double sums (2 x 24), the
+  // non-finite counts (4) and the display's RGBA8 (4).
+  e.width = scene.render.width;
+  e.height = scene.render.height;
+  e.frame = uint64_t(e.width) * uint64_t(e.height) * 88;
+  // restir's frame passes: a shading point and two reservoirs a pixel.
+  if (restir_frame_passes(scene.integrator()))
+    e.frame += uint64_t(e.width) * uint64_t(e.height) * (sizeof(RestirPixel) + 2 * sizeof(Reservoir));
+  e.fixed = uint64_t(64) << 20;  // module, program groups, SBT, stacks, launch parameters
+  return e;
 }
 
 class DeviceBuffer {
@@ -371,6 +420,7 @@ class OptixBackendImpl final : public OptixBackend {
       init_device();
       build_stats_.valid = true;
       build_stats_.device_used_before = device_memory_used();
+      check_device_memory();
       build_pipeline();
       build_scene_data();
       build_accels();
@@ -395,7 +445,7 @@ class OptixBackendImpl final : public OptixBackend {
     return {{"gpu", gpu_name_},
             {"compute_capability", std::to_string(props_.major) + "." + std::to_string(props_.minor)},
             {"multiprocessors", std::to_string(props_.multiProcessorCount)},
-            {"gpu_memory", format_bytes(double(props_.totalGlobalMem))},
+            {"gpu_memory", format_bytes(uint64_t(props_.totalGlobalMem))},
             {"driver", driver_},
             {"cuda_driver_api", std::to_string(drv / 1000) + "." + std::to_string((drv % 1000) / 10)},
             {"optix", optix_version_string(OPTIX_VERSION) + " (ABI " + std::to_string(OPTIX_ABI_VERSION) + ")"},
@@ -427,10 +477,12 @@ class OptixBackendImpl final : public OptixBackend {
       launch_sum_sq_.alloc(pixels * sizeof(float4), "the per-launch sample sums", size_);
       acc_sum_.alloc(pixels * 3 * sizeof(double), "the accumulation buffers", size_);
       acc_sum_sq_.alloc(pixels * 3 * sizeof(double), "the accumulation buffers", size_);
+      acc_bad_.alloc(pixels * sizeof(unsigned), "the accumulation buffers", size_);
       rgba_.release();
     }
     PN_CUDA(cudaMemsetAsync(acc_sum_.as<void>(), 0, acc_sum_.size(), stream_));
     PN_CUDA(cudaMemsetAsync(acc_sum_sq_.as<void>(), 0, acc_sum_sq_.size(), stream_));
+    PN_CUDA(cudaMemsetAsync(acc_bad_.as<void>(), 0, acc_bad_.size(), stream_));
     accumulated_ = 0;
   }
 
@@ -521,7 +573,8 @@ class OptixBackendImpl final : public OptixBackend {
       const float scale = std::exp2(exposure_) / float(accumulated_);
       PN_CUDA(optix::launch_accumulate(launch_sum_.as<float4>(), launch_sum_sq_.as<float4>(), pixels,
                                        acc_sum_.as<double>(), acc_sum_sq_.as<double>(),
-                                       counters_.as<unsigned long long>(), display_ ? rgba_.as<uchar4>() : nullptr,
+                                       counters_.as<unsigned long long>(), acc_bad_.as<unsigned>(),
+                                       display_ ? rgba_.as<uchar4>() : nullptr,
                                        scale, props_.multiProcessorCount, stream_));
       PN_CUDA(cudaEventRecord(s.end, stream_));
     }
@@ -530,7 +583,13 @@ class OptixBackendImpl final : public OptixBackend {
     unsigned long long counters[2] = {0, 0};
     PN_CUDA(cudaMemcpy(counters, counters_.as<void>(), sizeof counters, cudaMemcpyDeviceToHost));
     stats_.rays = counters[0];
-    nonfinite_ = counters[1];
+    stats_.nonfinite = counters[1];
+    if (stats_.nonfinite > 0) {  // which pixels: the first few, in row order
+      std::vector<unsigned> bad(pixels);
+      PN_CUDA(cudaMemcpy(bad.data(), acc_bad_.as<void>(), pixels * sizeof(unsigned), cudaMemcpyDeviceToHost));
+      for (size_t i = 0; i < pixels && stats_.nonfinite_pixels.size() < RenderStats::kMaxNonfinitePixels; ++i)
+        if (bad[i]) note_nonfinite_pixel(stats_, int(i % size_t(W)), int(i / size_t(W)), W);
+    }
   }
 
   // One sample of every pixel by restir's passes (core/restir.h): the
@@ -575,9 +634,6 @@ class OptixBackendImpl final : public OptixBackend {
     double* sum_sq = film.sum_sq();
     for (size_t i = 0; i < n; ++i) sum_sq[i] += host_[i];
     film.add_samples(count);
-    if (nonfinite_ > 0)
-      throw std::runtime_error(scene_.source + ": " + std::to_string(nonfinite_) +
-                               " samples were NaN or infinite (a bug in penumbra: please report the scene)");
   }
 
   void tonemap(float exposure_stops) override {
@@ -623,6 +679,21 @@ class OptixBackendImpl final : public OptixBackend {
     PN_OPTIX(optixDeviceContextCreate(nullptr, &o, &context_));
     params_.alloc(sizeof(LaunchParams), "the launch parameters", size_);
     counters_.alloc(2 * sizeof(unsigned long long), "the ray counters", size_);
+  }
+
+  // What the scene and a frame of its size will take on the device, from their
+  // sizes alone (nothing is allocated yet), against what cudaMemGetInfo says is
+  // free: one line, instead of running out half-way through the builds.
+  void check_device_memory() {
+    const DeviceEstimate e = estimate_device_memory(scene_);
+    build_stats_.estimated_bytes = e.total();
+    size_t free_b = 0, total_b = 0;
+    PN_CUDA(cudaMemGetInfo(&free_b, &total_b));
+    if (e.total() <= free_b) return;
+    throw std::runtime_error(scene_.source + ": needs about " + format_bytes(e.total()) + " of GPU memory (" +
+                             e.describe() + "), but " + format_bytes(uint64_t(free_b)) + " of " +
+                             format_bytes(uint64_t(total_b)) + " is free on the " + gpu_name_ +
+                             "; scene: " + size_.describe());
   }
 
   void build_pipeline() {
@@ -1105,8 +1176,8 @@ class OptixBackendImpl final : public OptixBackend {
                             &light_bvh_trails_, &materials_,
                             &texture_views_, &env_marginal_func_, &env_marginal_cdf_, &env_conditional_func_,
                             &env_conditional_cdf_, &params_, &counters_, &compacted_size_, &sbt_raygen_, &sbt_miss_,
-                            &sbt_hit_, &launch_sum_, &launch_sum_sq_, &acc_sum_, &acc_sum_sq_, &rgba_, &restir_pixels_,
-                            &restir_a_, &restir_b_})
+                            &sbt_hit_, &launch_sum_, &launch_sum_sq_, &acc_sum_, &acc_sum_sq_, &acc_bad_, &rgba_,
+                            &restir_pixels_, &restir_a_, &restir_b_})
       b->release();
     if (stream_) cudaStreamDestroy(stream_);
     stream_ = nullptr;
@@ -1147,12 +1218,11 @@ class OptixBackendImpl final : public OptixBackend {
   DeviceBuffer restir_pixels_, restir_a_, restir_b_;  // restir's passes: shading points, reservoirs (ping-pong)
   DeviceBuffer env_marginal_func_, env_marginal_cdf_, env_conditional_func_, env_conditional_cdf_;
   DeviceBuffer params_, counters_, compacted_size_, sbt_raygen_, sbt_miss_, sbt_hit_;
-  DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, rgba_;
+  DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, acc_bad_, rgba_;
   LaunchParams base_params_;
 
   int width_ = 0, height_ = 0;
   uint64_t accumulated_ = 0;
-  uint64_t nonfinite_ = 0;
   RenderStats stats_;
   SceneBuildStats build_stats_;
   std::vector<double> host_;

@@ -23,7 +23,9 @@ __global__ void __launch_bounds__(kBlock) accumulate_kernel(const float4* __rest
                                                             const float4* __restrict__ sum_sq, size_t pixels,
                                                             double* __restrict__ acc_sum,
                                                             double* __restrict__ acc_sum_sq,
-                                                            unsigned long long* counters, uchar4* rgba, float scale) {
+                                                            unsigned long long* counters,
+                                                            unsigned* __restrict__ bad_pixels, uchar4* rgba,
+                                                            float scale) {
   unsigned long long rays = 0, bad = 0;
   for (size_t i = size_t(blockIdx.x) * kBlock + threadIdx.x; i < pixels; i += size_t(gridDim.x) * kBlock) {
     const float4 s = sum[i], q = sum_sq[i];
@@ -38,6 +40,7 @@ __global__ void __launch_bounds__(kBlock) accumulate_kernel(const float4* __rest
     b[2] += double(q.z);
     rays += (unsigned long long)s.w;
     bad += (unsigned long long)q.w;
+    if (q.w > 0.f) bad_pixels[i] += unsigned(q.w);
     if (rgba) rgba[i] = tonemap_pixel(r, g, bl, scale);
   }
   for (int o = 16; o > 0; o >>= 1) {
@@ -80,10 +83,10 @@ unsigned grid_for(size_t pixels, int num_sms) {
 }  // namespace
 
 cudaError_t launch_accumulate(const float4* sum, const float4* sum_sq, size_t pixels, double* acc_sum,
-                              double* acc_sum_sq, unsigned long long* counters, uchar4* rgba, float scale,
-                              int num_sms, cudaStream_t stream) {
+                              double* acc_sum_sq, unsigned long long* counters, unsigned* bad_pixels, uchar4* rgba,
+                              float scale, int num_sms, cudaStream_t stream) {
   accumulate_kernel<<<grid_for(pixels, num_sms), kBlock, 0, stream>>>(sum, sum_sq, pixels, acc_sum, acc_sum_sq,
-                                                                     counters, rgba, scale);
+                                                                     counters, bad_pixels, rgba, scale);
   return cudaGetLastError();
 }
 
