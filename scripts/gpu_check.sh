@@ -19,10 +19,19 @@
 #      a few techniques and of the real-scene checks (GPU_CHECK_REAL_SCENES, default
 #      "glossy sponza": textures, environment, GGX, alpha masks). A scene of that
 #      list that `penumbra scenes` does not list is skipped with a note;
-#   3. compute-sanitizer --tool memcheck on short OptiX renders with
+#   3. light selection (issue 14): every method of GPU_CHECK_SELECTIONS
+#      (uniform, bvh, restir unbiased with spatial reuse, restir without reuse,
+#      restir with BVH candidates, the BIASED restir: CPU and GPU must agree on
+#      its expectation too) on GPU_CHECK_SELECTION_SCENES (default many-spheres
+#      at 2000 lights, sponza-lanterns, glossy: the environment beside the
+#      light BVH), CPU against GPU with independent seeds, and bvh and restir
+#      with the same seed; restir's frame passes on the GPU (spatial reuse and
+#      shading raygens) run here for the first time;
+#   4. compute-sanitizer --tool memcheck on short OptiX renders with
 #      projected-solid-angle and MIS (cornell-sphere, polygon-near and the
-#      real-scene checks that exist): 0 errors;
-#   4. bad input on the GPU (tests/data): a camera inside a closed box sees
+#      real-scene checks that exist), and with bvh and restir on many-spheres:
+#      0 errors;
+#   5. bad input on the GPU (tests/data): a camera inside a closed box sees
 #      exactly 0 with every strategy; an overflowing sky is written with its
 #      dropped samples counted (exit 4); the device-memory estimate checked
 #      before building is not below what the scenes take.
@@ -34,6 +43,7 @@
 # to the 1% bound on the mean difference), GPU_CHECK_REAL_SCENES,
 # GPU_CHECK_MEMCHECK_SCENES (default cornell-sphere, polygon-near and the real scenes),
 # GPU_CHECK_SCENES (default: every built-in scene), GPU_CHECK_TECHNIQUES,
+# GPU_CHECK_SELECTIONS, GPU_CHECK_SELECTION_SCENES,
 # GPU_CHECK_UNIT_TESTS=0 (skip ctest),
 # OptiX_ROOT, PENUMBRA_SCENES (where sponza/ and models/ are: scene/scene.h).
 set -uo pipefail
@@ -132,7 +142,39 @@ for st in "$first:solid-angle:none" "$first:projected-solid-angle:power" "polygo
   fi
 done
 
-# 3. Memory checker on a short render.
+# 3. Light selection: every method, CPU against GPU (solid-angle, MIS power).
+echo "== light selection: CPU vs GPU"
+# method[:extra args, comma-separated]: the name is the spec with ':' and ',' and '=' made '_'.
+selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-biased"}
+selection_scenes=${GPU_CHECK_SELECTION_SCENES:-"many-spheres sponza-lanterns glossy"}
+for scene in $selection_scenes; do
+  if ! listed "$scene"; then echo "skip: $scene is not a built-in scene of this build"; continue; fi
+  scene_args=()
+  [[ $scene == many-spheres ]] && scene_args=(--set defaults.lights=2000)
+  for spec in $selections; do
+    method=${spec%%:*}
+    extra=()
+    [[ $spec == *:* ]] && IFS=, read -r -a extra <<<"${spec#*:}"
+    name=${scene}_sel_$(tr ':,=' '___' <<<"$spec" | tr -d -)
+    ok=1
+    for b in cpu:0 optix:1; do
+      if ! render "$scene" solid-angle power "${b%%:*}" "${b##*:}" "${name}_${b%%:*}" --light-selection "$method" \
+           "${scene_args[@]}" "${extra[@]}"; then
+        cat "$out/${name}_${b%%:*}.log"; record "$scene $spec: ${b%%:*} render" 1; ok=0
+      fi
+    done
+    [[ $ok == 1 ]] && compare_pair "${name}_cpu" "${name}_optix" "$scene light selection $spec: cpu == optix"
+    if [[ $ok == 1 && ( $spec == bvh || $spec == restir ) ]]; then
+      if render "$scene" solid-angle power optix 0 "${name}_optix_seed0" --light-selection "$method" "${scene_args[@]}"; then
+        compare_pair "${name}_cpu" "${name}_optix_seed0" "$scene light selection $spec, same seed: cpu == optix"
+      else
+        cat "$out/${name}_optix_seed0.log"; record "$scene $spec, same seed: optix render" 1
+      fi
+    fi
+  done
+done
+
+# 4. Memory checker on a short render.
 echo "== compute-sanitizer --tool memcheck"
 if command -v compute-sanitizer >/dev/null 2>&1; then
   for scene in ${GPU_CHECK_MEMCHECK_SCENES:-cornell-sphere polygon-near ${present_real[*]}}; do
@@ -148,11 +190,23 @@ if command -v compute-sanitizer >/dev/null 2>&1; then
     grep -q "ERROR SUMMARY: 0 errors" "$log" || st=1
     record "compute-sanitizer memcheck $scene: 0 errors" $st
   done
+  if listed many-spheres; then
+    for method in bvh restir; do
+      log=$out/memcheck_many-spheres_$method.log
+      compute-sanitizer --tool memcheck --leak-check full --error-exitcode 9 \
+        "$penumbra" render many-spheres --backend optix --light-selection "$method" --width 64 --height 36 --spp 4 \
+        -o "$out/memcheck_many-spheres_$method.exr" >"$log" 2>&1
+      st=$?
+      grep -E "ERROR SUMMARY|LEAK SUMMARY" "$log" || tail -n 5 "$log"
+      grep -q "ERROR SUMMARY: 0 errors" "$log" || st=1
+      record "compute-sanitizer memcheck many-spheres --light-selection $method: 0 errors" $st
+    done
+  fi
 else
   record "compute-sanitizer memcheck: compute-sanitizer not found" 1
 fi
 
-# 4. Bad input on the GPU (issue 12), on the files of tests/data.
+# 5. Bad input on the GPU (issue 12), on the files of tests/data.
 echo "== bad input on the GPU"
 data=$root/tests/data
 # a) A camera inside a closed box, a light and a white sky outside: every pixel

@@ -790,6 +790,13 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
     write_text(os.path.join(out_dir, "lab.json"), json.dumps({"headline": head, "sweeps": sweeps, "preset": lab}, indent=1))
 
 
+def checks_passed(what, failures):
+    """Logs each failure as 'study: <what> FAILED: ...'; True when there is none."""
+    for f in failures:
+        log(f"study: {what} FAILED: " + f)
+    return not failures
+
+
 def lab_check(head):
     """The CI smoke test's assertions on the lab: -1/2 slopes for the light-sampling
     techniques, and spherical polygons beating area on polygon-near."""
@@ -809,9 +816,7 @@ def lab_check(head):
     for r in pn:
         if not lab_efficiency(r, "solid-angle") > 1.0:
             failures.append(f"polygon-near: solid-angle does not beat area (efficiency {lab_efficiency(r, 'solid-angle'):.3f})")
-    for f in failures:
-        log("study: LAB CHECK FAILED: " + f)
-    return not failures
+    return checks_passed("LAB CHECK", failures)
 
 
 def check(head):
@@ -827,9 +832,7 @@ def check(head):
     for near, key in [(r, k) for r in head if r["scene"] == "cornell-near" for k in ("fit_rmse", "fit_rmse_nolight")]:
         if not speedup(near, key) > 1.0:
             failures.append(f"cornell-near: solid-angle does not beat area ({key} speed-up {speedup(near, key):.3f})")
-    for f in failures:
-        log("study: CHECK FAILED: " + f)
-    return not failures
+    return checks_passed("CHECK", failures)
 
 
 def keep(plan_, kept):
@@ -855,6 +858,241 @@ def finish_lab(args, lab, out_dir, head, sweeps):
         write_lab_report(args, lab, head, sweeps, out_dir)
         log(f"study: wrote {os.path.join(out_dir, 'README.md')}")
     return not (args.check and head and not lab_check(head))
+
+
+# --- Many lights (issue 14): light selection at equal time ------------------------
+#
+# Every selection method with every light-sampling strategy (MIS power) on the
+# many-light scenes, one `penumbra converge` run per method (the ground truth,
+# selected by power, is shared through the cache); the lights-count sweep of
+# many-spheres; and `penumbra bench` for cost and memory per method.
+MANY_PRESETS = {
+    "full": dict(headline=dict(width=960, height=540, reference_spp=8192, max_spp=256, seeds=2), lights=10000,
+                 sweep=dict(width=320, height=180, reference_spp=4096, max_spp=64, seeds=2),
+                 counts=[10, 100, 1000, 10000, 100000]),
+    # The issue's numbers: 10,000 lights at 1080p on the GPU.
+    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=4096, max_spp=128, seeds=2), lights=10000,
+                sweep=dict(width=480, height=270, reference_spp=4096, max_spp=64, seeds=2),
+                counts=[10, 100, 1000, 10000, 100000]),
+    # At 24x16 every lamp is smaller than a pixel, and the pixels it covers in part escape the mask of lamp
+    # pixels: the smoke runs look at the floor from below the lamps (none in view).
+    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=2), lights=500,
+                  sweep=dict(width=16, height=12, reference_spp=512, max_spp=16, seeds=2), counts=[10, 100, 1000],
+                  sets=["camera.eye=[0,0.18,-3]", "camera.target=[0,0,-2.505]", "camera.fov=30"]),
+}
+MANY_SCENES = {"many-spheres": "defaults.lights", "sponza-lanterns": None}
+# name -> scene overrides; restir is the paper's defaults (32 candidates by power, 2 spatial passes of 3 neighbours).
+MANY_SELECTIONS = {
+    "uniform": ["render.light_selection=uniform"],
+    "power": ["render.light_selection=power"],
+    "bvh": ["render.light_selection=bvh"],
+    "restir": ["render.light_selection=restir"],
+    "restir-biased": ["render.light_selection=restir", "render.restir.unbiased=false"],
+}
+MANY_STRATEGIES = ["area", "solid-angle", "projected-solid-angle"]
+MANY_SWEEP_SELECTIONS = ["power", "bvh", "restir"]
+MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-biased": "#9467bd"}
+
+
+def many_technique(strategy):
+    return f"{strategy}+power"
+
+
+def many_plan(args, cfg, out_dir):
+    """(headline runs, {selection: sweep runs}): every selection method with every strategy on each many-light
+    scene (sponza-lanterns optional: its model data lives in ../shared/scenes), and the lights-count sweep of
+    many-spheres for each method of MANY_SWEEP_SELECTIONS."""
+    head, sweeps = [], {}
+    if args.only != "sweeps":
+        for scene, count_key in MANY_SCENES.items():
+            sets = (f"{count_key}={cfg['lights']}",) + tuple(cfg.get("sets", ())) if count_key else ()
+            head += [Run(f"{scene}-{sel}", scene, cfg["headline"], sets + tuple(extra), tuple(MANY_STRATEGIES),
+                         ("power",), out_dir, None if count_key else scene)
+                     for sel, extra in MANY_SELECTIONS.items()]
+    if args.only != "headline":
+        for sel in MANY_SWEEP_SELECTIONS:
+            sweeps[sel] = [Run(f"count-{n}-{sel}", "many-spheres", cfg["sweep"],
+                               (f"defaults.lights={n}",) + tuple(cfg.get("sets", ())) + tuple(MANY_SELECTIONS[sel]),
+                               ("solid-angle",), ("power",), out_dir) for n in cfg["counts"]]
+    return head, sweeps
+
+
+def many_group(plan_, head):
+    """The headline's summaries as {scene: {selection: summary}} (the runs that ran)."""
+    where = {r.name: (r.scene, r.name[len(r.scene) + 1:]) for r in plan_[0]}
+    out = {}
+    for summary in head:
+        scene, sel = where[summary["name"]]
+        out.setdefault(scene, {})[sel] = summary
+    return {scene: runs for scene, runs in out.items() if len(runs) == len(MANY_SELECTIONS)}
+
+
+def many_bench(args, cfg, out_dir):
+    """`penumbra bench` per lights count: ms per launch of each method, the light BVH's build and size (CLI only)."""
+    if args.engine != "cli" or not os.path.exists(args.penumbra):
+        return []
+    out = []
+    for n in cfg["counts"]:
+        path = os.path.join(out_dir, "runs", f"bench-{n}.json")
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        cmd = [args.penumbra, "bench", "--backend", args.backend, "--scenes", "many-spheres", "--set",
+               f"defaults.lights={n}", "--selections", ",".join(["uniform", "power", "bvh", "restir"]),
+               "--strategies", "solid-angle", "--mis", "power", "--width", str(cfg["sweep"]["width"]), "--height",
+               str(cfg["sweep"]["height"]), "--launches", "5" if args.preset == "smoke" else "20", "--json", path]
+        if not args.report_only:
+            log("study: " + " ".join(cmd))
+            run_cmd(cmd, stdout=subprocess.DEVNULL)
+        if os.path.exists(path):
+            with open(path) as f:
+                out.append(dict(lights=n, bench=json.load(f)))
+    return out
+
+
+# Many-light scenes show their lamps: pixels that see a light directly carry the
+# lamps' own (pixel-coverage) noise, alike for every method and far above the
+# rest. Errors are measured without them (converge's *_nolight metrics).
+def many_efficiency(runs, sel, strategy, base="power", key="efficiency_nolight"):
+    t = many_technique(strategy)
+    return runs[sel]["strategies"][t][key] / runs[base]["strategies"][t][key]
+
+
+def many_relmse_efficiency(summary, strategy):
+    """1 / (relMSE x time) at the largest spp, without the pixels that see a light."""
+    last = summary["strategies"][many_technique(strategy)]["points"][-1]
+    e = last["relmse_nolight"] * last["time_ms"]
+    return 1.0 / e if e > 0 else float("nan")
+
+
+def many_mean_bias(summary, strategy):
+    """(image mean - reference mean) / reference mean at the largest spp, over seeds: the bias (plus noise)."""
+    ref = summary["reference"].get("mean_nolight", 0)
+    m = summary["strategies"][many_technique(strategy)]["points"][-1].get("mean_nolight")
+    return (m - ref) / ref if ref and m is not None else float("nan")
+
+
+def plot_many_sweep(counts, sweep, value, ylabel, title, path):
+    fig, ax = plt.subplots(figsize=(5.8, 3.9))
+    for sel, runs in sweep.items():
+        ax.loglog(counts, [value(r) for r in runs], "o-", color=MANY_COLORS[sel], label=sel)
+    ax.set_xlabel("lights")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_many_report(args, cfg, head, sweep, bench, out_dir):
+    fig_dir = os.path.join(out_dir, "figures")
+    os.makedirs(fig_dir, exist_ok=True)
+    env = head["many-spheres"]["power"]
+    info = env.get("device_info", {})
+    h, sw = cfg["headline"], cfg["sweep"]
+    lines = []
+    w = lines.append
+    w("# Many lights: light selection at equal time\n")
+    w(f"Generated by `python3 scripts/study.py --preset {args.preset} --part many-lights` on "
+      f"{datetime.date.today().isoformat()}, penumbra commit `{env.get('git_commit', 'unknown')}`, backend "
+      f"**{env['backend']}** ({env['device']}" + "".join(f", {k} {v}" for k, v in info.items()) + ").\n")
+    w("## What was measured\n")
+    w(f"- Scenes: {', '.join(head)} ({cfg['lights']} lights in many-spheres) at {h['width']}x{h['height']}, max depth "
+      f"8, MIS power; ground truth {h['reference_spp']} spp selected by power (solid-angle); renders at 1, 2, ..., "
+      f"{h['max_spp']} spp, {h['seeds']} seeds.")
+    w("- Selection methods: " + ", ".join(f"`{s}`" for s in MANY_SELECTIONS) + ". `restir`: " +
+      env.get("light_selection", "") + " when run with it; see the runs' summary.json for each method's settings. "
+      "**`restir-biased` is the paper's biased combination: its error includes its bias.**")
+    w("- Time: GPU time (CUDA events) on the GPU, wall time on the CPU. **Efficiency** = 1 / (MSE x time) at the "
+      "largest spp, relative to `power` with the same strategy (> 1: better at equal time); relMSE-efficiency the "
+      "same with relMSE (pbrt's, (x - ref)^2 / (ref^2 + 0.01)). Both **without the pixels that see a lamp "
+      "directly** (their pixel-coverage noise is the same for every method and far above the rest).\n")
+    for scene, runs in head.items():
+        w(f"## {scene}: efficiency relative to `power`\n")
+        w("| selection | " + " | ".join(f"`{st}`" for st in MANY_STRATEGIES) + " | relMSE-efficiency (solid-angle) | ms/spp (solid-angle) |")
+        w("| --- |" + " ---: |" * (len(MANY_STRATEGIES) + 2))
+        for sel in MANY_SELECTIONS:
+            rel = many_relmse_efficiency(runs[sel], "solid-angle") / many_relmse_efficiency(runs["power"], "solid-angle")
+            ms = runs[sel]["strategies"][many_technique("solid-angle")]["ms_per_spp"]
+            w(f"| `{sel}` | " + " | ".join(fmt(many_efficiency(runs, sel, st)) for st in MANY_STRATEGIES) +
+              f" | {fmt(rel)} | {ms:.3f} |")
+        w("")
+        w("RMSE at the largest spp, slope of the log-log fit, and the image mean against the reference's (the "
+          "bias, within the noise of both; solid-angle; pixels that see a lamp left out):\n")
+        w("| selection | RMSE | slope | mean vs reference |")
+        w("| --- | ---: | ---: | ---: |")
+        for sel in MANY_SELECTIONS:
+            js = runs[sel]["strategies"][many_technique("solid-angle")]
+            w(f"| `{sel}` | {js['points'][-1]['rmse_nolight']:.4g} | {js['fit_rmse_nolight']['slope']:.3f} | "
+              f"{100 * many_mean_bias(runs[sel], 'solid-angle'):+.2f}% |")
+        w("")
+    if sweep:
+        counts = cfg["counts"]
+        w(f"## Lights-count sweep (many-spheres, solid-angle + power, {sw['width']}x{sw['height']})\n")
+        plot_many_sweep(counts, sweep, lambda r: r["strategies"]["solid-angle+power"]["efficiency_nolight"],
+                        "efficiency 1 / (MSE x ms)", "many-spheres: efficiency", os.path.join(fig_dir, "many_sweep_efficiency.png"))
+        plot_many_sweep(counts, sweep, lambda r: r["strategies"]["solid-angle+power"]["ms_per_spp"], "ms per spp",
+                        "many-spheres: cost", os.path.join(fig_dir, "many_sweep_cost.png"))
+        w("![efficiency](figures/many_sweep_efficiency.png) ![cost](figures/many_sweep_cost.png)\n")
+        w("| lights | " + " | ".join(f"`{s}` efficiency vs power | `{s}` ms/spp" for s in sweep) + " |")
+        w("| ---: |" + " ---: | ---: |" * len(sweep))
+        for i, n in enumerate(counts):
+            cells = []
+            for sel, runs in sweep.items():
+                e = (runs[i]["strategies"]["solid-angle+power"]["efficiency_nolight"] /
+                     sweep["power"][i]["strategies"]["solid-angle+power"]["efficiency_nolight"])
+                cells += [fmt(e), f"{runs[i]['strategies']['solid-angle+power']['ms_per_spp']:.3f}"]
+            w(f"| {n} | " + " | ".join(cells) + " |")
+        w("")
+    if bench:
+        w("## Cost and memory per method (`penumbra bench`, many-spheres)\n")
+        w("ms per launch of 1 spp (solid-angle + power); memory: the power CDF (4 bytes a light), the light BVH "
+          "(nodes and trails, also uploaded to the GPU), restir's per-pixel buffers at this resolution.\n")
+        w("| lights | uniform | power | bvh | restir | BVH build ms | BVH MiB | power CDF MiB | restir MiB |")
+        w("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        for b in bench:
+            j = b["bench"]
+            ms = {r["light_selection"].split(" ")[0]: r["ms_per_launch"]["median"] for r in j["results"]}
+            sb = j["scene_builds"][0]
+            w(f"| {b['lights']} | " + " | ".join(f"{ms.get(s, float('nan')):.3f}" for s in ["uniform", "power", "bvh", "restir"]) +
+              f" | {sb['light_bvh_build_ms']:.2f} | {sb['light_bvh_mib']:.3f} | {4 * (b['lights'] + 1) / 2**20:.3f} | "
+              f"{sb.get('restir_frame_mib', float('nan')):.2f} |")
+        w("")
+    if os.path.exists(os.path.join(out_dir, "DISCUSSION.md")):
+        w("## Discussion\n")
+        w("[DISCUSSION.md](DISCUSSION.md).\n")
+    write_text(os.path.join(out_dir, "README.md"), "\n".join(lines) + "\n")
+    write_text(os.path.join(out_dir, "many_lights.json"),
+               json.dumps({"headline": head, "sweep": sweep, "bench": bench, "preset": cfg}, indent=1))
+
+
+def many_check(head, sweep):
+    """The CI smoke test's assertions: the unbiased methods converge (RMSE slopes near -1/2 against a reference
+    selected by power), and the light BVH beats power selection per sample on many-spheres (MSE at equal spp, which
+    the fixed seeds make deterministic; equal time is reported, not asserted: CI machines' timings are noisy)."""
+    failures = []
+    runs = head["many-spheres"]
+    for sel in [s for s in MANY_SELECTIONS if s != "restir-biased"]:
+        for st in MANY_STRATEGIES:
+            slope = runs[sel]["strategies"][many_technique(st)]["fit_rmse_nolight"]["slope"]
+            if not -0.8 <= slope <= -0.3:
+                failures.append(f"many-spheres {sel} {st}: slope {slope:.3f} outside -0.5 +- 0.3")
+    mse = {sel: runs[sel]["strategies"][many_technique("solid-angle")]["points"][-1]["rmse_nolight"] ** 2
+           for sel in ("power", "bvh")}
+    if not mse["bvh"] < 0.6 * mse["power"]:
+        failures.append(f"many-spheres: bvh's MSE at equal spp is not below 0.6x power's ({mse['bvh']:.4g} vs "
+                        f"{mse['power']:.4g})")
+    return checks_passed("MANY-LIGHTS CHECK", failures)
+
+
+def finish_many_lights(args, cfg, out_dir, plan_, head, sweep):
+    """The many-lights part's bench runs, report and (with --check) assertions. False: a check failed."""
+    head = many_group(plan_, head)
+    bench = many_bench(args, cfg, out_dir) if args.only != "headline" else []
+    if "many-spheres" in head and not args.no_report:
+        write_many_report(args, cfg, head, sweep, bench, out_dir)
+        log(f"study: wrote {os.path.join(out_dir, 'README.md')}")
+    return not (args.check and "many-spheres" in head and not many_check(head, sweep))
 
 
 def main():
@@ -885,9 +1123,11 @@ def main():
                     help="ray without --address: the CPUs the Ray instance on this machine may use (default: all)")
     ap.add_argument("--retries", type=int, default=3,
                     help="ray: how often a task whose worker or machine is lost runs again (Ray's max_retries)")
-    ap.add_argument("--part", choices=["thesis", "lab", "all"], default="all",
+    ap.add_argument("--part", choices=["thesis", "lab", "many-lights", "all"], default="all",
                     help="thesis: chapter 4 (area against solid-angle, docs/results/README.md); lab: every strategy and "
-                         "MIS mode on the lab's scenes (docs/results/lab/README.md); all: both")
+                         "MIS mode on the lab's scenes (docs/results/lab/README.md); many-lights: light selection "
+                         "methods at equal time and the lights-count sweep (docs/results/many-lights/README.md); "
+                         "all: the three")
     ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
     ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES)),
                     help="run only this headline scene (repeatable): split a long study over several GPU calls, "
@@ -916,16 +1156,18 @@ def main():
         sys.exit(77)  # CTest's skip code: a machine without them (CI installs them) skips the smoke test
     check_out(args)
     preset, lab = PRESETS[args.preset], LAB_PRESETS[args.preset]
-    lab_dir = os.path.join(args.out, "lab")
+    lab_dir, many_dir = os.path.join(args.out, "lab"), os.path.join(args.out, "many-lights")
+    many = MANY_PRESETS[args.preset]
     # Every run, planned and estimated before any starts.
     lab_runs = lab_plan(args, lab, lab_dir) if args.part in ("lab", "all") else ([], {})
     thesis_runs = thesis_plan(args, preset) if args.part in ("thesis", "all") else ([], {})
+    many_runs = many_plan(args, many, many_dir) if args.part in ("many-lights", "all") else ([], {})
     args.ray_failed = {}
     if not args.report_only:
-        every = [r for head, sweeps in (lab_runs, thesis_runs) for r in head + sum(sweeps.values(), [])]
+        every = [r for head, sweeps in (lab_runs, thesis_runs, many_runs) for r in head + sum(sweeps.values(), [])]
         planned = plan_on_ray(args, every) if args.executor == "ray" else [(r, None) for r in plan(args, every)]
         kept = {run_key(r) for r, _ in planned}
-        lab_runs, thesis_runs = keep(lab_runs, kept), keep(thesis_runs, kept)
+        lab_runs, thesis_runs, many_runs = keep(lab_runs, kept), keep(thesis_runs, kept), keep(many_runs, kept)
         if args.executor == "ray":
             os.makedirs(args.out, exist_ok=True)
             args.ray_failed = run_on_ray(args, planned)
@@ -934,6 +1176,9 @@ def main():
     if args.part in ("lab", "all"):
         os.makedirs(lab_dir, exist_ok=True)
         ok = finish_lab(args, lab, lab_dir, *run_all(args, lab_runs)) and ok
+    if args.part in ("many-lights", "all"):
+        os.makedirs(many_dir, exist_ok=True)
+        ok = finish_many_lights(args, many, many_dir, many_runs, *run_all(args, many_runs)) and ok
     if args.part in ("thesis", "all"):
         head, sweeps = run_all(args, thesis_runs)
         radius_runs = sweeps.get("radius", [])
@@ -947,7 +1192,7 @@ def main():
         sys.exit(1)
     if not args.keep_runs:
         # Keep what the report needs to stay reproducible and small: CSV, JSON, PNG.
-        for runs in (os.path.join(args.out, "runs"), os.path.join(lab_dir, "runs")):
+        for runs in (os.path.join(args.out, "runs"), os.path.join(lab_dir, "runs"), os.path.join(many_dir, "runs")):
             for root, _, files in os.walk(runs):
                 for f in files:
                     if f.endswith(".npy"):

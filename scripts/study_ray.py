@@ -148,6 +148,16 @@ def point_key(options, reference_key, technique, commit):
 
 # --- An experiment's files from its points -------------------------------------------------
 
+def _write(path, data):
+    """Writes bytes or text under a temporary name, then renames: never a half-written file."""
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "wb" if isinstance(data, bytes) else "w") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
 def write_run(run, plan, points, reference):
     """Writes run.out as `penumbra converge` would: the points' files, their
     measurements in technique order, and one summary.json with every technique.
@@ -157,13 +167,11 @@ def write_run(run, plan, points, reference):
     for p in points:
         for name, data in p["files"].items():
             if name not in ("measurements.csv", "summary.json"):
-                with open(os.path.join(run.out, name), "wb") as f:
-                    f.write(data)
+                _write(os.path.join(run.out, name), data)
         lines = p["files"]["measurements.csv"].decode().splitlines(keepends=True)
         header = header or lines[0]
         rows += lines[1:]
-    with open(os.path.join(run.out, "measurements.csv"), "w") as f:
-        f.write(header + "".join(rows))
+    _write(os.path.join(run.out, "measurements.csv"), header + "".join(rows))
     summary = json.loads(json.dumps(points[0]["summary"]))
     summary["strategies"] = {}
     for p in points:
@@ -172,9 +180,7 @@ def write_run(run, plan, points, reference):
     summary["reference"].update(reference)
     summary["overrides"] = list(run.sets)  # as the study wrote them (the tasks pass them as values)
     summary["executor"] = "ray"
-    with open(os.path.join(run.out, "summary.json"), "w") as f:
-        json.dump(summary, f, indent=2, sort_keys=True)
-        f.write("\n")
+    _write(os.path.join(run.out, "summary.json"), json.dumps(summary, indent=2, sort_keys=True) + "\n")
 
 
 # --- The driver ---------------------------------------------------------------------------

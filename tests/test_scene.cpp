@@ -45,7 +45,7 @@ void expect_error(const json& doc, const std::string& field, const std::string& 
 const std::vector<std::string> kThesisScenes = {"cornell-sphere", "cornell-near", "occlusion"};
 
 TEST(Scene, BuiltinsParseAndHaveOneSphereLight) {
-  ASSERT_EQ(builtin_scenes().size(), 8u);
+  ASSERT_EQ(builtin_scenes().size(), 10u);
   for (const std::string& name : kThesisScenes) {
     const BuiltinScene* b = find_builtin(name);
     ASSERT_NE(b, nullptr) << name;

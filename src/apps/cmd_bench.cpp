@@ -1,12 +1,13 @@
-// `penumbra bench`: time every built-in scene with every strategy and MIS mode, one sample
-// per pixel per launch, and report the median and spread of the launch times as
-// a table and as JSON.
+// `penumbra bench`: time every built-in scene with every strategy and MIS mode (and,
+// with --selections, light-selection method), one sample per pixel per launch,
+// and report the median and spread of the launch times as a table and as JSON.
 //
 // GPU: each launch's time comes from CUDA events (path tracing, then the
 // accumulation and, as a viewer does, the tone-map), over many launches after
 // a warm-up. CPU: each launch is one render() call of spp-per-launch samples,
 // timed by the wall clock. For each scene the GPU backend also reports what
-// building it cost: acceleration-structure build times and device memory.
+// building it cost: acceleration-structure build times and device memory; on
+// either, the light BVH's host build time and size.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -43,7 +44,7 @@ using json = nlohmann::json;
 
 struct BenchArgs {
   std::string backend = "auto";
-  std::vector<std::string> scenes, strategies, mis, sets;
+  std::vector<std::string> scenes, strategies, mis, selections, sets;
   int width = 0, height = 0;  // 0: 1920x1080 on the GPU, 320x180 on the CPU
   int launches = 0;           // 0: 100 on the GPU, 10 on the CPU
   int warmup = -1;            // -1: 10 on the GPU, 1 on the CPU
@@ -117,6 +118,7 @@ std::vector<std::string> split_list(const std::vector<std::string>& items) {
 struct Result {
   std::string scene, strategy;  // strategy: the technique's name ("area", "area+power")
   std::string mis;
+  std::string selection;        // the light-selection method's label (light_selection_label)
   Spread ms;             // per launch: trace + accumulate (GPU), wall (CPU)
   Spread trace_ms, accumulate_ms;
   double wall_ms_per_launch = 0;  // end-to-end, host clock, over the timed launches
@@ -128,7 +130,8 @@ struct Result {
 // One scene's size and, on the GPU, the cost of building it.
 struct SceneBuild {
   std::string scene;
-  size_t triangles = 0, instances = 0, spheres = 0, textures = 0;
+  size_t triangles = 0, instances = 0, spheres = 0, textures = 0, lights = 0;
+  double light_bvh_ms = 0, light_bvh_mib = 0;  // host build of the light BVH, its size
   SceneBuildStats stats;
 };
 
@@ -149,6 +152,9 @@ int run_bench(const BenchArgs& a) {
   if (modes.empty())
     for (int i = 0; i < kNumMisModes; ++i) modes.push_back(Mis(i));
   const std::vector<Technique> techniques = cross_techniques(strategies, modes);
+  // Light-selection methods: the scene's own when none are given.
+  std::vector<LightSelection> selections;
+  for (const std::string& m : split_list(a.selections)) selections.push_back(parse_light_selection(m, "--selections"));
   if (a.spp_per_launch < 1) throw std::runtime_error("--spp-per-launch must be at least 1");
 
   std::vector<Result> results;
@@ -218,54 +224,63 @@ int run_bench(const BenchArgs& a) {
       b.instances = scene.instances.size();
       b.spheres = scene.spheres.size();
       b.textures = scene.textures.size();
+      b.lights = scene.lights.size();
+      b.light_bvh_ms = scene.light_bvh.build_ms;
+      b.light_bvh_mib = mib(scene.light_bvh.bytes());
       b.stats = backend->scene_build_stats();
       builds.push_back(b);
     }
 
-    for (const Technique& technique : techniques) {
-      FrameSpec frame = frame_spec(scene);
-      frame.integrator.strategy = technique.strategy;
-      frame.integrator.mis = technique.mis;
-      Film film(W, H);
-      const double pixels = double(W) * double(H);
-      Result r;
-      r.scene = scene_name;
-      r.strategy = technique_name(technique);
-      r.mis = mis_name(technique.mis);
-      if (warmup > 0) backend->render(frame, film, 0, uint32_t(warmup * a.spp_per_launch));
-      const uint32_t first = uint32_t(warmup * a.spp_per_launch);
-      std::vector<double> total, trace, acc;
-      double gpu_ms = 0;
-      auto t0 = std::chrono::steady_clock::now();
-      if (gpu) {
-        backend->render(frame, film, first, uint32_t(launches * a.spp_per_launch));
-        RenderStats st = backend->last_render_stats();
-        for (const LaunchTiming& l : st.launches) {
-          total.push_back(double(l.trace_ms) + double(l.accumulate_ms));
-          trace.push_back(l.trace_ms);
-          acc.push_back(l.accumulate_ms);
-          gpu_ms += total.back();
+    std::vector<LightSelection> scene_selections = selections;
+    if (scene_selections.empty()) scene_selections.push_back(scene.render.light_selection);
+    for (const LightSelection selection : scene_selections) {
+      for (const Technique& technique : techniques) {
+        FrameSpec frame = frame_spec(scene);
+        frame.integrator.strategy = technique.strategy;
+        frame.integrator.mis = technique.mis;
+        frame.integrator.light_selection = selection;
+        Film film(W, H);
+        const double pixels = double(W) * double(H);
+        Result r;
+        r.scene = scene_name;
+        r.strategy = technique_name(technique);
+        r.mis = mis_name(technique.mis);
+        r.selection = light_selection_label(selection, scene.render.restir);
+        if (warmup > 0) backend->render(frame, film, 0, uint32_t(warmup * a.spp_per_launch));
+        const uint32_t first = uint32_t(warmup * a.spp_per_launch);
+        std::vector<double> total, trace, acc;
+        double gpu_ms = 0;
+        auto t0 = std::chrono::steady_clock::now();
+        if (gpu) {
+          backend->render(frame, film, first, uint32_t(launches * a.spp_per_launch));
+          RenderStats st = backend->last_render_stats();
+          for (const LaunchTiming& l : st.launches) {
+            total.push_back(double(l.trace_ms) + double(l.accumulate_ms));
+            trace.push_back(l.trace_ms);
+            acc.push_back(l.accumulate_ms);
+            gpu_ms += total.back();
+          }
+          r.rays = st.rays;
+          nonfinite += st.nonfinite;
+        } else {
+          for (int i = 0; i < launches; ++i) {
+            auto s = std::chrono::steady_clock::now();
+            backend->render(frame, film, first + uint32_t(i * a.spp_per_launch), uint32_t(a.spp_per_launch));
+            total.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - s).count());
+            nonfinite += backend->last_render_stats().nonfinite;
+          }
         }
-        r.rays = st.rays;
-        nonfinite += st.nonfinite;
-      } else {
-        for (int i = 0; i < launches; ++i) {
-          auto s = std::chrono::steady_clock::now();
-          backend->render(frame, film, first + uint32_t(i * a.spp_per_launch), uint32_t(a.spp_per_launch));
-          total.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - s).count());
-          nonfinite += backend->last_render_stats().nonfinite;
-        }
+        double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        r.wall_ms_per_launch = wall / std::max(1, launches);
+        r.ms = spread(total);
+        r.trace_ms = spread(trace);
+        r.accumulate_ms = spread(acc);
+        r.msamples_per_s = r.ms.median > 0 ? pixels * a.spp_per_launch / (r.ms.median * 1e-3) * 1e-6 : 0;
+        r.rays_per_s = (r.rays && gpu_ms > 0) ? double(r.rays) / (gpu_ms * 1e-3) : 0;
+        std::fprintf(stderr, "  %-16s %-28s %-8s %9.3f ms/launch (median of %zu)\n", r.scene.c_str(),
+                     r.strategy.c_str(), light_selection_name(selection), r.ms.median, total.size());
+        results.push_back(r);
       }
-      double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      r.wall_ms_per_launch = wall / std::max(1, launches);
-      r.ms = spread(total);
-      r.trace_ms = spread(trace);
-      r.accumulate_ms = spread(acc);
-      r.msamples_per_s = r.ms.median > 0 ? pixels * a.spp_per_launch / (r.ms.median * 1e-3) * 1e-6 : 0;
-      r.rays_per_s = (r.rays && gpu_ms > 0) ? double(r.rays) / (gpu_ms * 1e-3) : 0;
-      std::fprintf(stderr, "  %-16s %-28s %9.3f ms/launch (median of %zu)\n", r.scene.c_str(), r.strategy.c_str(),
-                   r.ms.median, total.size());
-      results.push_back(r);
     }
   }
 
@@ -273,12 +288,12 @@ int run_bench(const BenchArgs& a) {
   const bool gpu = backend_name != "cpu";
   std::printf("\npenumbra bench: %s (%s), %dx%d, %d spp/launch, max depth %d, median of %d launches after %d warm-up\n",
               backend_name.c_str(), device_name.c_str(), W, H, a.spp_per_launch, a.max_depth, launches, warmup);
-  std::printf("%-16s %-28s %9s %9s %9s %9s %9s %8s %8s %10s %9s %8s\n", "scene", "technique", "ms/launch", "min",
-              "p10", "p90", "max", "trace", "accum", "Msamples/s", "Grays/s", "vs area");
+  std::printf("%-16s %-28s %-8s %9s %9s %9s %9s %9s %8s %8s %10s %9s %8s\n", "scene", "technique", "select",
+              "ms/launch", "min", "p10", "p90", "max", "trace", "accum", "Msamples/s", "Grays/s", "vs area");
   for (const Result& r : results) {
     double area_ms = 0;
     for (const Result& o : results)
-      if (o.scene == r.scene && o.strategy == "area") area_ms = o.ms.median;
+      if (o.scene == r.scene && o.strategy == "area" && o.selection == r.selection) area_ms = o.ms.median;
     char vs[32] = "-";
     if (area_ms > 0) std::snprintf(vs, sizeof vs, "%+.1f%%", (r.ms.median / area_ms - 1.0) * 100.0);
     char rays[32] = "-";
@@ -288,10 +303,22 @@ int run_bench(const BenchArgs& a) {
       std::snprintf(trace, sizeof trace, "%.3f", r.trace_ms.median);
       std::snprintf(accum, sizeof accum, "%.3f", r.accumulate_ms.median);
     }
-    std::printf("%-16s %-28s %9.3f %9.3f %9.3f %9.3f %9.3f %8s %8s %10.2f %9s %8s\n", r.scene.c_str(),
-                r.strategy.c_str(), r.ms.median, r.ms.min, r.ms.p10, r.ms.p90, r.ms.max, trace, accum,
+    const std::string select = r.selection.substr(0, r.selection.find(' '));
+    std::printf("%-16s %-28s %-8s %9.3f %9.3f %9.3f %9.3f %9.3f %8s %8s %10.2f %9s %8s\n", r.scene.c_str(),
+                r.strategy.c_str(), select.c_str(), r.ms.median, r.ms.min, r.ms.p10, r.ms.p90, r.ms.max, trace, accum,
                 r.msamples_per_s, rays, vs);
   }
+  for (const Result& r : results)
+    if (r.selection.find(' ') != std::string::npos) {
+      std::printf("(restir: %s)\n", r.selection.c_str());
+      break;
+    }
+
+  // ---- Light BVHs (host) ----
+  std::printf("\nlight BVH (host build, one thread per subtree of 8192+ lights)\n%-16s %9s %9s %9s\n", "scene", "lights",
+              "build ms", "MiB");
+  for (const SceneBuild& b : builds)
+    std::printf("%-16s %9zu %9.2f %9.3f\n", b.scene.c_str(), b.lights, b.light_bvh_ms, b.light_bvh_mib);
 
   // ---- Scene builds (GPU) ----
   bool any_build = false;
@@ -338,6 +365,7 @@ int run_bench(const BenchArgs& a) {
       json o = {{"scene", r.scene},
                 {"strategy", r.strategy},
                 {"mis", r.mis},
+                {"light_selection", r.selection},
                 {"ms_per_launch", spread_json(r.ms)},
                 {"msamples_per_s", r.msamples_per_s},
                 {"wall_ms_per_launch", r.wall_ms_per_launch}};
@@ -357,7 +385,12 @@ int run_bench(const BenchArgs& a) {
                 {"triangles", b.triangles},
                 {"instances", b.instances},
                 {"spheres", b.spheres},
-                {"textures", b.textures}};
+                {"textures", b.textures},
+                {"lights", b.lights},
+                {"light_bvh_build_ms", b.light_bvh_ms},
+                {"light_bvh_mib", b.light_bvh_mib},
+                // restir's frame buffers (shading points, two reservoirs a pixel) at this resolution
+                {"restir_frame_mib", mib(uint64_t(W) * uint64_t(H) * (sizeof(RestirPixel) + 2 * sizeof(Reservoir)))}};
       if (b.stats.valid) {
         const SceneBuildStats& s = b.stats;
         o["gas_count"] = s.gas_count;
@@ -406,6 +439,9 @@ Command add_bench_command(CLI::App& app) {
   sub->add_option("--mis", a->mis,
                   "MIS modes, comma-separated, each with every strategy that samples lights (default: " + mis_names() +
                       ")");
+  sub->add_option("--selections", a->selections,
+                  "Light-selection methods, comma-separated (" + light_selection_names() +
+                      "; default: each scene's own); restir's settings are the scene's (--set render.restir.*)");
   sub->add_option("--width", a->width, "Image width (default: 1920 on the GPU, 320 on the CPU)")
       ->check(CLI::Range(1, 16384));
   sub->add_option("--height", a->height, "Image height (default: 1080 on the GPU, 180 on the CPU)")

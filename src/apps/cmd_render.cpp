@@ -120,8 +120,9 @@ int run_render(const RenderArgs& a) {
   std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
   std::fprintf(stderr, "%s\n", note.c_str());
 
-  std::fprintf(stderr, "%s: %dx%d, %d spp, strategy %s, MIS %s, max depth %d, seed %u\n", scene.source.c_str(),
-               r.width, r.height, r.spp, strategy_name(r.strategy), mis_name(r.mis), r.max_depth, r.seed);
+  std::fprintf(stderr, "%s: %dx%d, %d spp, strategy %s, MIS %s, light selection %s, max depth %d, seed %u\n",
+               scene.source.c_str(), r.width, r.height, r.spp, strategy_name(r.strategy), mis_name(r.mis),
+               light_selection_label(r.light_selection, r.restir).c_str(), r.max_depth, r.seed);
   Film film(r.width, r.height);
   ProgressBar bar("rendering");
   backend->render(frame_spec(scene), film, 0, uint32_t(r.spp),
@@ -145,6 +146,9 @@ int run_render(const RenderArgs& a) {
   if (a.stats) {
     std::fprintf(stderr, "stats: %zu triangles, %zu spheres, %zu lights, %.3f ms per spp\n", scene.triangle_count(),
                  scene.spheres.size(), scene.lights.size(), render_seconds * 1e3 / r.spp);
+    const LightBvh& bvh = scene.light_bvh;
+    std::fprintf(stderr, "stats: light BVH: %u lights, %zu nodes, depth %u, %.2f MiB, built in %.2f ms\n", bvh.lights,
+                 bvh.nodes.size(), bvh.depth, double(bvh.bytes()) / (1024.0 * 1024.0), bvh.build_ms);
     print_device_stats(stats, double(r.width) * r.height);
     print_launch_stats(stats, double(r.width) * r.height);
   }

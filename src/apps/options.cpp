@@ -23,8 +23,21 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
   sub->add_option("--mis", o->mis,
                   "Multiple importance sampling of light and BSDF samples (default: the scene's; power for scenes "
                   "that do not say, none for the thesis's cornell-sphere, cornell-near and occlusion): " + mis_help());
+  std::string selections;
+  for (int i = 0; i < kNumLightSelections; ++i)
+    selections += std::string("\n  ") + light_selection_name(LightSelection(i)) + ": " +
+                  light_selection_description(LightSelection(i));
   sub->add_option("--light-selection", o->light_selection,
-                  "How the light of each light sample is chosen: " + light_selection_names() + " (default: power)");
+                  "How the light of each light sample is chosen (default: the scene's, else power):" + selections);
+  auto* g = sub->add_option_group("restir", "ReSTIR DI (--light-selection restir); defaults: the scene's render.restir");
+  g->add_option("--restir-candidates", o->restir_candidates, "Candidates per pixel, M (default 32)");
+  g->add_option("--restir-spatial", o->restir_spatial, "Spatial reuse passes (default 2; 0: candidates only)");
+  g->add_option("--restir-neighbors", o->restir_neighbors, "Neighbours per pixel and pass, k (default 3)");
+  g->add_option("--restir-radius", o->restir_radius, "Radius of spatial reuse in pixels (default 30)");
+  g->add_option("--restir-source", o->restir_source, "Selection of the candidates: uniform, power or bvh (default power)");
+  g->add_flag("--restir-biased", o->restir_biased,
+              "BIASED combination (the paper's: no visibility in the reuse, Z = sum of M): cheaper, darker where "
+              "neighbours see other lights");
 }
 
 void add_gpus_option(CLI::App* sub, std::string* gpus) {
@@ -49,6 +62,17 @@ void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::st
   if (!o.strategy.empty()) overrides->push_back("render.strategy=\"" + o.strategy + "\"");
   if (!o.mis.empty()) overrides->push_back("render.mis=\"" + o.mis + "\"");
   if (!o.light_selection.empty()) overrides->push_back("render.light_selection=\"" + o.light_selection + "\"");
+  // Validated with the scene (render.restir.*: one line naming the field).
+  auto set_int = [&](const char* key, long long v) {
+    if (v != IntegratorOptions::kUnset) overrides->push_back(std::string("render.restir.") + key + "=" + std::to_string(v));
+  };
+  set_int("candidates", o.restir_candidates);
+  set_int("spatial_passes", o.restir_spatial);
+  set_int("neighbors", o.restir_neighbors);
+  if (o.restir_radius != -std::numeric_limits<double>::infinity())
+    overrides->push_back("render.restir.radius=" + std::to_string(o.restir_radius));
+  if (!o.restir_source.empty()) overrides->push_back("render.restir.source=\"" + o.restir_source + "\"");
+  if (o.restir_biased) overrides->push_back("render.restir.unbiased=false");
 }
 
 }  // namespace pn

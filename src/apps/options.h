@@ -3,6 +3,7 @@
 // scene overrides (render.strategy=...) validated with the scene like any --set.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -12,11 +13,17 @@ namespace pn {
 
 struct IntegratorOptions {
   std::string strategy, mis, light_selection;  // empty: the scene's
+  // restir's settings (render.restir.*); kUnset / empty: the scene's.
+  static constexpr long long kUnset = std::numeric_limits<long long>::min();
+  long long restir_candidates = kUnset, restir_spatial = kUnset, restir_neighbors = kUnset;
+  double restir_radius = -std::numeric_limits<double>::infinity();
+  std::string restir_source;
+  bool restir_biased = false;
 };
 
 void add_integrator_options(CLI::App* sub, IntegratorOptions* o);
 
-// Appends "render.strategy=..." etc. for the options that were given.
+// Appends "render.strategy=..." (and render.restir.*) for the options that were given.
 void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::string>* overrides);
 
 // --gpus (render, converge): which GPUs split the samples of each image; "all"

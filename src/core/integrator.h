@@ -25,6 +25,16 @@
 //                 can produce it (Veach & Guibas 1995).
 // Russian roulette from vertex rr_depth on keeps the estimator unbiased
 // (beta /= survival probability).
+//
+// Light selection `restir` (core/restir.h) replaces the light sample of the
+// first vertex x1 by the one kept of M candidates resampled by their
+// unshadowed contribution p_hat (RIS): f L cos * w_light * W, with W the kept
+// sample's unbiased contribution weight. Its MIS weight pairs M times the
+// density of restir's source, M P(light) p_light, with p_bsdf, as the BSDF side
+// does (restir_mis_density): any two weights that sum to 1 keep the estimator
+// unbiased. With spatial reuse the backends run x1's light as frame-level
+// passes (render_sample with a RestirPrimaryOut leaves it out and records x1
+// and its reservoir).
 #pragma once
 
 #include "camera.h"
@@ -32,6 +42,7 @@
 #include "geometry.h"
 #include "light_sampler.h"
 #include "material.h"
+#include "reservoir.h"
 #include "rng.h"
 #include "scene_view.h"
 #include "strategy.h"
@@ -43,9 +54,101 @@ struct IntegratorSettings {
   Strategy strategy = Strategy::SolidAngle;
   Mis mis = Mis::Power;
   LightSelection light_selection = LightSelection::Power;
+  RestirSettings restir;  // light_selection == Restir only
   int max_depth = 8;  // maximum number of scattering vertices on a path
   int rr_depth = 5;   // Russian roulette from this vertex on
 };
+
+// The selection method light samples are drawn with: restir's source for
+// restir (it resamples what its source draws), else the method itself. Every
+// selection pmf, MIS weights' included, is this method's.
+PN_FN LightSelection candidate_selection(const IntegratorSettings& s) {
+  return s.light_selection == LightSelection::Restir ? s.restir.source : s.light_selection;
+}
+
+// The light technique's density in MIS weights: P(light) p_light per sample,
+// times the number of candidates where restir resampled M of them (as if the
+// light technique took M samples: the weights then give the BSDF sample less
+// of what resampling finds well; any pair of weights that sums to 1 for every
+// direction keeps the estimate unbiased, this one is closer to the resampled
+// density than one candidate's).
+PN_FN float restir_mis_density(float p_light, float candidates) { return p_light * candidates; }
+
+// One light sample for next-event estimation at a shading point, before its
+// shadow ray: the chosen light, the strategy's sample of it, the BSDF there.
+// With resampling (ris: restir's first vertex), it is the one kept of M
+// candidates, each drawn with density p = P(light) p_light(w) and weighted by
+// w = p_hat / p, p_hat = luminance(f L cos); its unbiased contribution weight
+// (in solid angle) is W = w_sum / (M p_hat(y)).
+struct DirectSample {
+  SelectedLight sel;  // pmf 0: none
+  LightSample ls;
+  Vec3 f;
+  bool ris = false;
+  uint32_t M = 1;
+  float w_sum = 0.f;
+  float p_hat = 0.f;  // of the kept candidate (solid angle)
+};
+
+template <uint32_t kFeatures = kAllFeatures>
+PN_FN DirectSample choose_direct_sample(const SceneView& scene, const IntegratorSettings& s, const Bsdf& bsdf, Vec3 p,
+                                        Vec3 wo, bool ris, float u_select, Vec2 u, Rng* rng) {
+  constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
+  const LightSampleContext ctx{p, bsdf.frame.n};
+  const LightSelection method = candidate_selection(s);
+  DirectSample d;
+  d.ris = ris && rng;
+  d.M = d.ris ? pn_max(1u, s.restir.candidates) : 1u;
+  for (uint32_t k = 0; k < d.M; ++k) {
+    if (k > 0) {
+      u_select = rng->uniform();
+      u = rng->uniform2();
+    }
+    const SelectedLight sel = select_light(scene.selection, scene.num_lights, method, ctx, u_select);
+    if (!(sel.pmf > 0.f)) continue;
+    const LightSample ls = sample_light<kFeatures>(scene, s.strategy, scene.lights[sel.index], ctx, u);
+    if (!(ls.pdf > 0.f)) continue;
+    const Vec3 f = bsdf_eval<kSpecular>(bsdf, wo, ls.wi);
+    if (is_black(f)) continue;
+    if (!d.ris) {
+      d.sel = sel;
+      d.ls = ls;
+      d.f = f;
+      break;
+    }
+    const float p_hat = luminance(f * ls.L) * dot(bsdf.frame.n, ls.wi);
+    const float w = p_hat / (sel.pmf * ls.pdf);
+    if (!(p_hat > 0.f) || !std::isfinite(w)) continue;
+    d.w_sum += w;
+    if (rng->uniform() * d.w_sum < w) {
+      d.sel = sel;
+      d.ls = ls;
+      d.f = f;
+      d.p_hat = p_hat;
+    }
+  }
+  return d;
+}
+
+// The radiance of a chosen light sample: f * L * cos / (P(light) p_light)
+// times its MIS weight (times p W for a resampled one), if the shadow ray is clear.
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
+PN_HD Vec3 shade_direct_sample(const Tracer& tracer, const IntegratorSettings& s, const Bsdf& bsdf, Vec3 p, Vec3 wo,
+                               const DirectSample& d) {
+  constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
+  if (!(d.sel.pmf > 0.f)) return Vec3(0.f);
+  const LightSample& ls = d.ls;
+  // The shadow ray leaves on the side of the geometric surface wi points to
+  // (bsdf_eval is 0 otherwise) and runs to the sampled point itself, so that
+  // the offset can never carry it past the light's surface.
+  if (!light_visible(tracer, p, bsdf.ng, ls.wi, ls.y, ls.infinite)) return Vec3(0.f);
+  const float p_light = ls.pdf * d.sel.pmf;
+  const float w = s.mis == Mis::None
+                      ? 1.f
+                      : mis_weight(s.mis, restir_mis_density(p_light, float(d.M)), bsdf_pdf<kSpecular>(bsdf, wo, ls.wi));
+  const float ris = d.ris ? d.w_sum * p_light / (float(d.M) * d.p_hat) : 1.f;  // p W
+  return d.f * ls.L * (dot(bsdf.frame.n, ls.wi) * w / p_light * ris);
+}
 
 // Next-event estimation at a shading point: radiance from one light sample,
 // f * L * cos / (P(light) p_light) times its MIS weight. Shared by the path
@@ -53,29 +156,8 @@ struct IntegratorSettings {
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s,
                            const Bsdf& bsdf, Vec3 p, Vec3 wo, float u_select, Vec2 u) {
-  constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
-  const LightSampleContext ctx{p, bsdf.frame.n};
-  const SelectedLight sel = select_light(scene.selection, scene.num_lights, s.light_selection, ctx, u_select);
-  if (!(sel.pmf > 0.f)) return Vec3(0.f);
-  const Light& light = scene.lights[sel.index];
-  const LightSample ls = sample_light<kFeatures>(scene, s.strategy, light, ctx, u);
-  if (!(ls.pdf > 0.f)) return Vec3(0.f);
-  const Vec3 f = bsdf_eval<kSpecular>(bsdf, wo, ls.wi);
-  if (is_black(f)) return Vec3(0.f);
-  // The shadow ray leaves on the side of the geometric surface wi points to
-  // (bsdf_eval is 0 otherwise) and runs to the sampled point itself, so that
-  // the offset can never carry it past the light's surface.
-  const Vec3 o = offset_ray_origin(p, bsdf.ng);
-  if (ls.infinite) {
-    if (tracer.occluded(Ray(o, ls.wi), kInf)) return Vec3(0.f);
-  } else {
-    const Vec3 to_light = ls.y - o;
-    const float dist = length(to_light);
-    if (tracer.occluded(Ray(o, to_light / dist), dist * (1.f - kShadowEpsilon))) return Vec3(0.f);
-  }
-  const float p_light = ls.pdf * sel.pmf;
-  const float w = s.mis == Mis::None ? 1.f : mis_weight(s.mis, p_light, bsdf_pdf<kSpecular>(bsdf, wo, ls.wi));
-  return f * ls.L * (dot(bsdf.frame.n, ls.wi) * w / p_light);
+  const DirectSample d = choose_direct_sample<kFeatures>(scene, s, bsdf, p, wo, false, u_select, u, nullptr);
+  return shade_direct_sample<kFeatures>(tracer, s, bsdf, p, wo, d);
 }
 
 // Convenience for tests: a strategy with the default MIS and selection off.
@@ -88,11 +170,31 @@ PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, Strateg
   return estimate_direct<kFeatures>(tracer, scene, s, bsdf, p, wo, u_select, u);
 }
 
+// The reservoir of restir's first vertex, for the frame-level passes
+// (core/restir.h): the kept candidate with its contribution weight in the area
+// measure (W / G), set to 0 when the kept candidate is occluded (visibility
+// reuse: the reservoir's target becomes p_hat V).
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
+PN_HD Reservoir make_reservoir(const Tracer& tracer, const SceneView& scene, const Bsdf& bsdf, Vec3 p, Vec3 wo,
+                               const DirectSample& d) {
+  Reservoir r;
+  r.M = float(d.M);
+  if (!(d.sel.pmf > 0.f)) return r;
+  r.s = light_point(scene.lights[d.sel.index], d.sel.index, d.ls);
+  r.w_sum = d.w_sum;
+  const TargetEval t = restir_target<kFeatures>(scene, bsdf, p, wo, r.s);
+  r.p_hat = t.p_hat;
+  if (!(t.p_hat > 0.f) || !light_visible(tracer, p, bsdf.ng, t.wi, r.s.y, r.s.infinite != 0)) return r;
+  r.W = d.w_sum / (r.M * t.p_hat);
+  return r;
+}
+
 // The vertex a BSDF-sampled ray left from: what the MIS weight of emission it
 // finds needs to know (the density NEE would have had for that direction).
 struct PrevVertex {
   LightSampleContext ctx;
   float bsdf_pdf = 0.f;
+  float light_candidates = 1.f;  // M at restir's first vertex (restir_mis_density), else 1
 };
 
 // The weight of emission from light `index` found along direction w by a
@@ -100,19 +202,30 @@ struct PrevVertex {
 template <uint32_t kFeatures = kAllFeatures>
 PN_FN float bsdf_emission_weight(const SceneView& scene, const IntegratorSettings& s, const PrevVertex& prev,
                                  uint32_t index, Vec3 w) {
-  const float p_light = selection_pmf(scene.selection, scene.num_lights, s.light_selection, prev.ctx, index) *
+  const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), prev.ctx, index) *
                         light_pdf<kFeatures>(scene, s.strategy, scene.lights[index], prev.ctx, w);
-  return mis_weight(s.mis, prev.bsdf_pdf, p_light);
+  return mis_weight(s.mis, prev.bsdf_pdf, restir_mis_density(p_light, prev.light_candidates));
 }
 
 // One path sample along `ray`; returns its radiance estimate. kFeatures must
 // cover the scene's features (SceneFeature); fewer compile to less code.
+//
+// restir resamples the light samples of the first vertex (x1); with `primary`
+// (its frame-level passes, core/restir.h) that vertex's direct light is left
+// out of the returned radiance and its shading point and reservoir are written
+// there instead.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
-PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s, Ray ray, Rng& rng) {
+PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s, Ray ray, Rng& rng,
+                      RestirPrimaryOut* primary = nullptr) {
   const bool nee = strategy_uses_nee(s.strategy);
   const bool mis = nee && s.mis != Mis::None;
+  const bool restir = s.light_selection == LightSelection::Restir;
   Vec3 L(0.f), beta(1.f);
   PrevVertex prev;
+  if (primary) {
+    primary->pixel->valid = 0;
+    *primary->reservoir = Reservoir();
+  }
   for (int depth = 0;; ++depth) {
     HitRecord rec;
     if (!tracer.intersect(ray, kInf, &rec)) {
@@ -138,7 +251,19 @@ PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const Integr
     if (nee) {
       float u_select = rng.uniform();
       Vec2 u_light = rng.uniform2();
-      L += beta * estimate_direct<kFeatures>(tracer, scene, s, bsdf, hit.p, wo, u_select, u_light);
+      const DirectSample d =
+          choose_direct_sample<kFeatures>(scene, s, bsdf, hit.p, wo, restir && depth == 0, u_select, u_light, &rng);
+      if (depth == 0 && primary) {
+        RestirPixel& px = *primary->pixel;
+        px.bsdf = bsdf;
+        px.p = hit.p;
+        px.wo = wo;
+        px.t = hit.t;
+        px.valid = 1;
+        *primary->reservoir = make_reservoir<kFeatures>(tracer, scene, bsdf, hit.p, wo, d);
+      } else {
+        L += beta * shade_direct_sample<kFeatures>(tracer, s, bsdf, hit.p, wo, d);
+      }
     }
 
     // Continue the path by sampling the BSDF.
@@ -148,6 +273,7 @@ PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const Integr
     beta *= bs.weight;
     prev.ctx = LightSampleContext{hit.p, bsdf.frame.n};
     prev.bsdf_pdf = bs.pdf;
+    prev.light_candidates = restir && depth == 0 ? float(pn_max(1u, s.restir.candidates)) : 1.f;
 
     // Russian roulette.
     if (depth + 1 >= s.rr_depth) {
@@ -164,11 +290,12 @@ PN_HD Vec3 trace_path(const Tracer& tracer, const SceneView& scene, const Integr
 // position in the pixel (box filter), one path.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 render_sample(const Tracer& tracer, const SceneView& scene, const Camera& camera,
-                         const IntegratorSettings& s, int px, int py, uint32_t sample_index, uint32_t seed) {
+                         const IntegratorSettings& s, int px, int py, uint32_t sample_index, uint32_t seed,
+                         RestirPrimaryOut* primary = nullptr) {
   Rng rng(uint32_t(py) * uint32_t(camera.width) + uint32_t(px), sample_index, seed);
   Vec2 j = rng.uniform2();
   Ray ray = camera.generate_ray(float(px) + j.x, float(py) + j.y);
-  return trace_path<kFeatures>(tracer, scene, s, ray, rng);
+  return trace_path<kFeatures>(tracer, scene, s, ray, rng, primary);
 }
 
 }  // namespace pn

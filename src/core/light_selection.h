@@ -2,10 +2,16 @@
 // beside how the chosen light is sampled (core/light_strategies.h). The
 // probability of choosing light i, P(i | x), multiplies every light pdf,
 // MIS weights included. The shading point is an argument because methods that
-// adapt to it (a light BVH, resampling) belong here too.
+// adapt to it (the light BVH, core/light_bvh.h) need it.
+//
+// `restir` is not a distribution of its own: it resamples M candidates drawn
+// by its source method (RestirSettings::source, core/restir.h), so
+// select_light() and selection_pmf() are called with that source; the
+// integrator asks candidate_selection() which method to pass.
 #pragma once
 
 #include "common.h"
+#include "light_bvh.h"
 #include "lights.h"
 #include "sampling.h"
 
@@ -14,7 +20,11 @@ namespace pn {
 #define PN_LIGHT_SELECTIONS(X)                                                                  \
   X(Uniform, "uniform", "every light with the same probability")                                \
   X(Power, "power", "in proportion to emitted power (luminance of pi A L; the environment's by " \
-                    "its image over the scene's bounding disk)")
+                    "its image over the scene's bounding disk)")                                \
+  X(Bvh, "bvh", "a light BVH traversed by importance at the shading point (distance, orientation, power; "  \
+                "Conty Estevez & Kulla 2018); the environment outside it with a fixed probability")        \
+  X(Restir, "restir", "ReSTIR DI (Bitterli et al. 2020): M candidates from --restir-source resampled by their " \
+                      "unshadowed contribution, spatial reuse between pixels (--restir-spatial)")
 
 enum class LightSelection : uint32_t {
 #define PN_X(e, name, desc) e,
@@ -41,11 +51,39 @@ inline const char* light_selection_description(LightSelection s) {
   return int(s) < kNumLightSelections ? descs[int(s)] : "?";
 }
 
-// What selection needs of the scene beside the number of lights: the power CDF
-// (count + 1 entries, built by the host's finalize_scene).
+// What selection needs of the scene beside the number of lights, built by the
+// host's finalize_scene: the power CDF (count + 1 entries), the light BVH, and
+// the light at infinity (the environment), which the BVH leaves out and picks
+// with a fixed probability: its share of the power, clamped to
+// [kMinInfiniteProbability, 1 - kMinInfiniteProbability] so that neither a
+// bright sky nor a dim one starves the other lights or itself (1 when the tree
+// is empty).
 struct LightSelectionView {
   const float* power_cdf = nullptr;  // null: power selection falls back to uniform
+  LightBvhView bvh;                  // null nodes: bvh selection falls back to power
+  int32_t infinite_light = -1;       // index of the environment light, or -1
+  float infinite_probability = 0.f;  // bvh: the probability of choosing it
 };
+constexpr float kMinInfiniteProbability = 0.1f;
+
+// restir's parameters (core/reservoir.h, core/restir.h): at the first vertex
+// of every camera path, `candidates` light samples drawn by `source` and the
+// strategy are resampled by their unshadowed contribution (RIS, Talbot 2005);
+// then `spatial_passes` passes each combine every pixel's reservoir with those
+// of `neighbors` random pixels within `radius` pixels. Unbiased by default;
+// `unbiased = 0` is the paper's biased combination (cheaper, darker where
+// neighbours see different lights), labelled as such wherever it is reported.
+struct RestirSettings {
+  uint32_t candidates = 32;
+  uint32_t spatial_passes = 2;
+  uint32_t neighbors = 3;
+  float radius = 30.f;
+  uint32_t unbiased = 1;
+  LightSelection source = LightSelection::Power;
+};
+constexpr uint32_t kMaxRestirCandidates = 4096;
+constexpr uint32_t kMaxRestirPasses = 16;
+constexpr uint32_t kMaxRestirNeighbors = 16;
 
 struct SelectedLight {
   uint32_t index = 0;
@@ -53,11 +91,26 @@ struct SelectedLight {
 };
 
 PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightSelection method,
-                                 const LightSampleContext&, float u) {
+                                 const LightSampleContext& ctx, float u) {
   SelectedLight s;
   if (n == 0) return s;
   switch (method) {
+    case LightSelection::Bvh:
+      if (v.bvh.nodes || v.infinite_light >= 0) {
+        const float p_inf = v.infinite_light >= 0 ? v.infinite_probability : 0.f;
+        if (u < p_inf) {
+          s.index = uint32_t(v.infinite_light);
+          s.pmf = p_inf;
+          return s;
+        }
+        const LightBvhPick pick = light_bvh_select(v.bvh, ctx, pn_min((u - p_inf) / (1.f - p_inf), kOneMinusEpsilon));
+        s.index = pick.light;
+        s.pmf = pick.pmf * (1.f - p_inf);
+        return s;
+      }
+      [[fallthrough]];
     case LightSelection::Power:
+    case LightSelection::Restir:  // callers pass restir's source; power if they do not
       if (v.power_cdf) {
         s.index = find_cdf_piece(v.power_cdf, n, u);
         s.pmf = v.power_cdf[s.index + 1] - v.power_cdf[s.index];
@@ -74,10 +127,25 @@ PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightS
 }
 
 // P(light i | x), as select_light() chooses.
-PN_FN float selection_pmf(const LightSelectionView& v, uint32_t n, LightSelection method, const LightSampleContext&,
+PN_FN float selection_pmf(const LightSelectionView& v, uint32_t n, LightSelection method, const LightSampleContext& ctx,
                           uint32_t i) {
   if (i >= n) return 0.f;
-  if (method == LightSelection::Power && v.power_cdf) return v.power_cdf[i + 1] - v.power_cdf[i];
+  switch (method) {
+    case LightSelection::Bvh:
+      if (v.bvh.nodes || v.infinite_light >= 0) {
+        const float p_inf = v.infinite_light >= 0 ? v.infinite_probability : 0.f;
+        if (int32_t(i) == v.infinite_light) return p_inf;
+        return light_bvh_pmf(v.bvh, ctx, i) * (1.f - p_inf);
+      }
+      [[fallthrough]];
+    case LightSelection::Power:
+    case LightSelection::Restir:
+      if (v.power_cdf) return v.power_cdf[i + 1] - v.power_cdf[i];
+      break;
+    case LightSelection::Uniform:
+    case LightSelection::Count:
+      break;
+  }
   return 1.f / float(n);
 }
 

@@ -27,6 +27,16 @@ class Rng {
     uint64_t key = (uint64_t(sample_index) << 32) | pixel_index;
     seed_pcg(mix64(key ^ mix64(seed)), mix64(uint64_t(seed) + 0x632be59bd9b4e019ull));
   }
+  // The stream of pass `pass` of a frame-level computation (ReSTIR's spatial
+  // reuse) at a pixel and sample: a seed above 2^32 in the hash, so that it is
+  // never one of the camera samples' streams.
+  PN_HD static Rng for_pass(uint32_t pixel_index, uint32_t sample_index, uint32_t seed, uint32_t pass) {
+    Rng r;
+    const uint64_t key = (uint64_t(sample_index) << 32) | pixel_index;
+    const uint64_t s = uint64_t(seed) | ((uint64_t(pass) + 1u) << 32);
+    r.seed_pcg(mix64(key ^ mix64(s)), mix64(s + 0x632be59bd9b4e019ull));
+    return r;
+  }
   PN_HD void seed_pcg(uint64_t initstate, uint64_t initseq) {
     state_ = 0u;
     inc_ = (initseq << 1u) | 1u;

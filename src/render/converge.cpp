@@ -163,14 +163,11 @@ Setup prepare(const ConvergeOptions& a) {
   // image and its noise: the scene document after overrides (geometry, camera,
   // resolution, depth), the reference spp and technique. Seed kRefSeed is kept
   // for references only. (Not the chunk size: it changes the order of double
-  // additions only.)
+  // additions only.) References select lights by power whatever the runs do (an
+  // unbiased method, and the same reference for every method compared).
   json key_doc = s.doc;
-  if (key_doc.contains("render") && key_doc["render"].is_object()) {
-    key_doc["render"].erase("spp");
-    key_doc["render"].erase("strategy");
-    key_doc["render"].erase("mis");
-    key_doc["render"].erase("seed");
-  }
+  if (key_doc.contains("render") && key_doc["render"].is_object())
+    for (const char* k : {"spp", "strategy", "mis", "seed", "light_selection", "restir"}) key_doc["render"].erase(k);
   std::ostringstream key;
   key << std::hex
       << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(s.ref_technique));
@@ -195,15 +192,23 @@ std::unique_ptr<Backend> backend_for(const ConvergeOptions& a, const Scene& scen
   return make_backend(a.backend, scene, opts, note);
 }
 
+// How the ground truth is rendered: the reference technique, lights selected by
+// power, seed kRefSeed.
+FrameSpec reference_frame(const Setup& s) {
+  FrameSpec f = frame_spec(s.scene);
+  f.integrator.strategy = s.ref_technique.strategy;
+  f.integrator.mis = s.ref_technique.mis;
+  f.integrator.light_selection = LightSelection::Power;
+  f.seed = kRefSeed;
+  return f;
+}
+
 // Chunk k of the ground truth into `film` (from zero).
 void render_chunk(Backend& backend, const Setup& s, int k, Film& film, const ProgressFn& progress) {
   if (k < 0 || k >= s.ref.chunks)
     throw std::invalid_argument("converge: reference chunk " + std::to_string(k) + " does not exist (the reference has " +
                                 std::to_string(s.ref.chunks) + ")");
-  FrameSpec f = frame_spec(s.scene);
-  f.integrator.strategy = s.ref_technique.strategy;
-  f.integrator.mis = s.ref_technique.mis;
-  f.seed = kRefSeed;
+  const FrameSpec f = reference_frame(s);
   const uint32_t first = uint32_t(k) * uint32_t(s.ref.chunk_spp);
   film.reset(s.W, s.H);
   backend.render(f, film, first, std::min<uint32_t>(uint32_t(s.ref.chunk_spp), uint32_t(s.ref.spp) - first), progress);
@@ -308,18 +313,17 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   // call per chunk), the 16-spp light mask, and every technique x seed x spp.
   double estimate = 0;
   {
-    FrameSpec f = frame_spec(scene);
-    f.integrator.strategy = ref_technique.strategy;
-    f.integrator.mis = ref_technique.mis;
-    const CallCost ref_cost = measure_cost(*backend, f, W, H);
+    const CallCost ref_cost = measure_cost(*backend, reference_frame(setup), W, H);
     if (!cached) estimate += ref_cost.seconds(plan.chunks, a.reference_spp);
     estimate += ref_cost.seconds(1, 16);
     double spp_total = 0;
     for (int s : spps) spp_total += s;
+    FrameSpec f = frame_spec(scene);
     for (const Technique& tq : techniques) {
       f.integrator.strategy = tq.strategy;
       f.integrator.mis = tq.mis;
-      const bool same = tq.strategy == ref_technique.strategy && tq.mis == ref_technique.mis;
+      const bool same = tq.strategy == ref_technique.strategy && tq.mis == ref_technique.mis &&
+                        f.integrator.light_selection == LightSelection::Power;
       const CallCost c = same ? ref_cost : measure_cost(*backend, f, W, H);
       estimate += c.seconds(double(spps.size()) * a.seeds, spp_total * a.seeds);
     }
@@ -414,7 +418,22 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   summary["height"] = H;
   summary["max_depth"] = scene.render.max_depth;
   summary["overrides"] = a.sets;
-  summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)}, {"file", ref_path},
+  // Image means, over all pixels and over those that see no light (the bias of
+  // a method shows in them, within the noise of both).
+  auto image_mean = [&](const std::vector<float>& img, bool nolight) {
+    double m = 0;
+    size_t n = 0;
+    for (size_t p = 0; p < mask.size(); ++p)
+      if (!nolight || mask[p]) {
+        m += double(img[3 * p]) + img[3 * p + 1] + img[3 * p + 2];
+        n += 3;
+      }
+    return n ? m / double(n) : 0.0;
+  };
+  summary["light_selection"] = light_selection_label(scene.render.light_selection, scene.render.restir);
+  summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)},
+                          {"light_selection", "power"}, {"mean", image_mean(ref, false)},
+                          {"mean_nolight", image_mean(ref, true)}, {"file", ref_path},
                           {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed},
                           {"chunk_spp", plan.chunk_spp},
                           {"rmse_floor", floor_all}, {"rmse_floor_nolight", floor_nolight}};
@@ -447,7 +466,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     json points = json::array();
     double ms_per_spp = 0;
     for (int spp : spps) {
-      double rm = 0, rmn = 0, rel = 0, reln = 0, ms = 0;
+      double rm = 0, rmn = 0, rel = 0, reln = 0, ms = 0, mean = 0, mean_nolight = 0;
       for (int seed = 1; seed <= a.seeds; ++seed) {
         f.seed = uint32_t(seed);
         Film film(W, H);
@@ -457,6 +476,8 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         ErrorMetrics all = error_metrics(img, ref), nolight = error_metrics(img, ref, &mask);
         result.measurements.push_back(
             {name, spp, seed, t, all.rmse, nolight.rmse, all.relmse, nolight.relmse});
+        mean += image_mean(img, false) / a.seeds;
+        mean_nolight += image_mean(img, true) / a.seeds;
         rm += all.rmse / a.seeds;
         rmn += nolight.rmse / a.seeds;
         rel += all.relmse / a.seeds;
@@ -470,7 +491,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         }
       }
       points.push_back({{"spp", spp}, {"rmse", rm}, {"rmse_nolight", rmn}, {"relmse", rel}, {"relmse_nolight", reln},
-                        {"time_ms", ms}});
+                        {"time_ms", ms}, {"mean", mean}, {"mean_nolight", mean_nolight}});
       if (spp >= a.fit_min_spp) {
         lx.push_back(std::log(double(spp)));
         ly.push_back(std::log(rm));

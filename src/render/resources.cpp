@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/restir.h"
 #include "scene/scene.h"
 
 namespace pn {
@@ -103,6 +104,10 @@ uint64_t cpu_backend_bytes(const Scene& scene) {
   for (const TriangleMesh& m : scene.meshes)
     bytes += 160 * uint64_t(m.indices.size()) + 16 * uint64_t(m.positions.size());
   bytes += 512 * uint64_t(scene.instances.size()) + 64 * uint64_t(scene.spheres.size());
+  bytes += scene.light_bvh.bytes();
+  // restir's frame passes: a shading point and two reservoirs a pixel.
+  if (restir_frame_passes(scene.integrator()))
+    bytes += uint64_t(scene.render.width) * uint64_t(scene.render.height) * (sizeof(RestirPixel) + 2 * sizeof(Reservoir));
   return bytes;
 }
 

@@ -25,7 +25,8 @@ uint64_t film_bytes(int width, int height);
 // Peak bytes of writing one w x h image: the float image plus its encoding.
 uint64_t image_write_bytes(int width, int height);
 // The CPU backend's copy of the geometry and its Embree BVHs (measured on the
-// built-in scenes: 40-135 bytes a triangle, about 330 an instance; this errs high).
+// built-in scenes: 40-135 bytes a triangle, about 330 an instance; this errs high),
+// the light BVH, and restir's per-pixel buffers where the scene's settings use them.
 uint64_t cpu_backend_bytes(const Scene& scene);
 
 // "12.3 GiB", "45.6 MiB", "789 bytes".

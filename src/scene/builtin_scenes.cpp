@@ -272,6 +272,65 @@ json make_glossy() {
   };
 }
 
+// --- Many lights ------------------------------------------------------------------
+
+// Warm, cool and white lamps, a few red and green ones.
+const json kLampColors = {{1.0, 0.75, 0.45}, {1.0, 0.85, 0.65}, {0.6, 0.75, 1.0}, {1.0, 1.0, 1.0}, {1.0, 0.45, 0.35},
+                          {0.55, 1.0, 0.6}};
+
+// Thousands of small sphere lights of varied power (a factor of 100 between
+// the dimmest and the brightest) and colour, scattered in a slab above a floor
+// whose left half is diffuse and right half glossy, among pillars and a wall
+// that shadow one another's lamps. `defaults.lights` (4000) sets their number;
+// the total power stays fixed, so the image's brightness does not change with
+// it (a "scatter" light: docs/scene-format.md).
+json make_many_spheres() {
+  json shapes = json::array();
+  shapes.push_back(quad({-12, 0, -12}, {0, 0, 24}, {12, 0, 0}, "matte"));   // x in [-12, 0]: diffuse
+  shapes.push_back(quad({0, 0, -12}, {0, 0, 24}, {12, 0, 0}, "glossy"));    // x in [0, 12]: glossy
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k)
+      shapes.push_back({{"type", "box"}, {"center", {-6 + 6 * i, 1.25, -5 + 5 * k}}, {"size", {0.8, 2.5, 0.8}},
+                        {"rotate_y", 15 * (i + k)}, {"material", "stone"}});
+  shapes.push_back({{"type", "box"}, {"center", {1.5, 0.6, 1.2}}, {"size", {7, 1.2, 0.3}}, {"rotate_y", -25},
+                    {"material", "stone"}});
+  shapes.push_back({{"type", "sphere"}, {"center", {-3, 0.9, 2.5}}, {"radius", 0.9}, {"material", "glossy"}});
+  return {
+      {"defaults", {{"lights", 4000}}},
+      {"camera", {{"eye", {0, 8.5, -15}}, {"target", {0, 0.4, 0.5}}, {"up", {0, 1, 0}}, {"fov", 42}}},
+      {"render", {{"width", 1920}, {"height", 1080}, {"spp", 64}, {"max_depth", 8}, {"rr_depth", 5},
+                  {"strategy", "solid-angle"}, {"mis", "power"}, {"seed", 0}}},
+      {"background", {0, 0, 0}},
+      {"materials", {{"matte", {{"albedo", {0.6, 0.6, 0.6}}}},
+                     {"glossy", {{"base_color", {0.5, 0.5, 0.52}}, {"metallic", 0}, {"roughness", 0.15}, {"specular", 0.5}}},
+                     {"stone", {{"albedo", {0.55, 0.5, 0.45}}}}}},
+      {"shapes", shapes},
+      {"lights", json::array({{{"type", "scatter"}, {"count", "$lights"}, {"seed", 14}, {"min", {-10, 0.2, -9}},
+                               {"max", {10, 2.4, 9}}, {"radius", {0.015, 0.05}}, {"power", 1500}, {"power_spread", 100},
+                               {"colors", kLampColors}}})},
+  };
+}
+
+// Sponza at night: rows of small lanterns (sphere lights) along both arcades
+// of the ground floor and of the gallery above, a little inside the columns
+// and along the middle of each walkway: 8 rows of `defaults.lanterns` (40)
+// lights each, warm and of varied power; the roof light of `sponza` is off.
+json make_sponza_lanterns() {
+  json doc = make_sponza();
+  json lights = json::array();
+  struct Row { double y, z; };
+  const Row rows[] = {{3.0, -3.9}, {3.0, -5.6}, {3.0, 3.9}, {3.0, 5.6}, {7.1, -3.9}, {7.1, -5.6}, {7.1, 3.9}, {7.1, 5.6}};
+  uint32_t seed = 1;
+  for (const Row& r : rows)
+    lights.push_back({{"type", "scatter"}, {"layout", "line"}, {"count", "$lanterns"}, {"seed", seed++},
+                      {"min", {-12.5, r.y, r.z}}, {"max", {12.5, r.y, r.z}}, {"radius", {0.04, 0.07}}, {"power", 100},
+                      {"power_spread", 8}, {"colors", {{1.0, 0.7, 0.4}, {1.0, 0.8, 0.55}, {1.0, 0.6, 0.3}}}});
+  doc["defaults"] = {{"lanterns", 40}};
+  doc["lights"] = lights;
+  doc["render"]["mis"] = "power";
+  return doc;
+}
+
 }  // namespace
 
 std::vector<std::string> scene_data_roots() {
@@ -298,6 +357,12 @@ const std::vector<BuiltinScene>& builtin_scenes() {
       {"glossy", "metal and plastic spheres, boxes and a bunny under a sphere light and an HDR sky with a sun "
                  "(set defaults.roughness, default 0.2)",
        make_glossy},
+      {"many-spheres", "thousands of small sphere lights of varied power and colour over a diffuse and a glossy floor "
+                       "among pillars (set defaults.lights, default 4000)",
+       make_many_spheres},
+      {"sponza-lanterns", "Sponza at night: 8 rows of small lanterns along its arcades and gallery (set "
+                          "defaults.lanterns, lights per row, default 40)",
+       make_sponza_lanterns},
   };
   return scenes;
 }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -26,6 +27,7 @@ constexpr int kMaxResolution = 16384;
 constexpr int kMaxSpp = 1 << 24;
 constexpr int kMaxDepth = 1024;
 using scene_detail::kMaxCoordinate;
+constexpr int kMaxScatterLights = 1000000;
 
 using scene_detail::Node;
 
@@ -105,8 +107,31 @@ void parse_camera(const Node& n, Scene& s) {
   }
 }
 
+// "restir": {"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "source"}
+// (core/light_selection.h, RestirSettings).
+void parse_restir(const Node& n, RestirSettings* r) {
+  n.expect_object({"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "source"});
+  if (n.has("candidates")) r->candidates = uint32_t(n.at("candidates").integer(1, long(kMaxRestirCandidates)));
+  if (n.has("spatial_passes")) r->spatial_passes = uint32_t(n.at("spatial_passes").integer(0, long(kMaxRestirPasses)));
+  if (n.has("neighbors")) r->neighbors = uint32_t(n.at("neighbors").integer(1, long(kMaxRestirNeighbors)));
+  if (n.has("radius")) r->radius = n.at("radius").real(1.0, 4096.0);
+  if (n.has("unbiased")) {
+    Node u = n.at("unbiased");
+    if (!u.j.is_boolean()) u.fail("expected true or false, got " + u.j.dump());
+    r->unbiased = u.j.get<bool>() ? 1u : 0u;
+  }
+  if (n.has("source")) {
+    Node src = n.at("source");
+    LightSelection m;
+    if (!find_light_selection(src.string(), &m) || m == LightSelection::Restir)
+      src.fail("unknown source '" + src.string() + "' (expected one of: uniform, power, bvh)");
+    r->source = m;
+  }
+}
+
 void parse_render(const Node& n, Scene& s) {
-  n.expect_object({"width", "height", "spp", "max_depth", "rr_depth", "strategy", "mis", "light_selection", "seed"});
+  n.expect_object({"width", "height", "spp", "max_depth", "rr_depth", "strategy", "mis", "light_selection", "restir",
+                   "seed"});
   RenderSettings& r = s.render;
   if (n.has("width")) r.width = n.at("width").integer(1, kMaxResolution);
   if (n.has("height")) r.height = n.at("height").integer(1, kMaxResolution);
@@ -122,6 +147,7 @@ void parse_render(const Node& n, Scene& s) {
   choice("strategy", &r.strategy, find_strategy, strategy_names());
   choice("mis", &r.mis, find_mis, mis_names());
   choice("light_selection", &r.light_selection, find_light_selection, light_selection_names());
+  if (n.has("restir")) parse_restir(n.at("restir"), &r.restir);
   if (n.has("seed")) r.seed = uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max())));
 }
 
@@ -409,6 +435,87 @@ void parse_environment(const Node& n, Scene& s, const std::string& base_dir) {
   s.environment.scale = n.has("intensity") ? n.at("intensity").color(1e6f) : Vec3(1.f);
 }
 
+// "type": "scatter": `count` sphere lights placed by a seeded generator, so
+// that a scene can hold thousands of lights (and a parameter choose how many)
+// without listing them (docs/scene-format.md). Centres uniform in the box
+// [min, max] ("layout": "random") or evenly spaced from min to max ("line");
+// radii uniform in `radius` ([lo, hi] or one number); each light's share of
+// the total `power` proportional to a weight log-uniform in [1, power_spread];
+// its colour one of `colors` at random (normalised to luminance 1, so that
+// the share is the luminance of its power).
+void parse_scatter(const Node& n, Scene& s, uint32_t material) {
+  n.expect_object({"type", "count", "seed", "min", "max", "layout", "radius", "power", "power_spread", "colors",
+                   "material"});
+  for (auto k : {"count", "min", "max", "radius", "power"}) n.require(k);
+  const int count = n.at("count").integer(1, kMaxScatterLights);
+  const uint32_t seed = n.has("seed") ? uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max()))) : 0u;
+  const Vec3 lo = n.at("min").vec3(), hi = n.at("max").vec3();
+  if (!(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) n.at("max").fail("must be >= min in every coordinate");
+  bool line = false;
+  if (n.has("layout")) {
+    const std::string layout = n.at("layout").string();
+    if (layout != "random" && layout != "line")
+      n.at("layout").fail("unknown layout '" + layout + "' (expected random or line)");
+    line = layout == "line";
+  }
+  float r0, r1;
+  const Node rn = n.at("radius");
+  if (rn.j.is_array()) {
+    if (rn.j.size() != 2) rn.fail("expected a number or [min, max]");
+    r0 = rn.at(size_t(0)).positive(kMaxCoordinate);
+    r1 = rn.at(size_t(1)).positive(kMaxCoordinate);
+    if (r1 < r0) rn.at(size_t(1)).fail("must be >= the minimum radius");
+  } else {
+    r0 = r1 = rn.positive(kMaxCoordinate);
+  }
+  const float total = n.at("power").positive(1e9);
+  const float spread = n.has("power_spread") ? n.at("power_spread").real(1.0, 1e6) : 1.f;
+  std::vector<Vec3> colors;
+  if (n.has("colors")) {
+    const Node cn = n.at("colors");
+    if (!cn.j.is_array() || cn.j.empty()) cn.fail("expected a non-empty array of colours");
+    for (size_t i = 0; i < cn.j.size(); ++i) {
+      const Vec3 c = cn.at(i).color(1e6f);
+      if (!(luminance(c) > 0.f)) cn.at(i).fail("must not be black");
+      colors.push_back(c / luminance(c));
+    }
+  } else {
+    colors.push_back(Vec3(1.f));
+  }
+  // One PCG stream per scatter, from its seed: the same lights on every machine.
+  Rng rng;
+  rng.seed_pcg(mix64(seed), mix64(uint64_t(seed) + 0x5ca77e5ull));
+  struct Placed {
+    Vec3 c;
+    float r, weight;
+    uint32_t color;
+  };
+  std::vector<Placed> placed(static_cast<size_t>(count));
+  double weights = 0;
+  for (int i = 0; i < count; ++i) {
+    Placed& p = placed[size_t(i)];
+    if (line) {
+      const float t = count > 1 ? float(i) / float(count - 1) : 0.5f;
+      p.c = lo + (hi - lo) * t;
+    } else {
+      const Vec3 u(rng.uniform(), rng.uniform(), rng.uniform());
+      p.c = lo + (hi - lo) * u;
+    }
+    p.r = r0 + (r1 - r0) * rng.uniform();
+    p.weight = std::pow(spread, rng.uniform());
+    p.color = pn_min(uint32_t(rng.uniform() * float(colors.size())), uint32_t(colors.size() - 1));
+    weights += p.weight;
+  }
+  for (const Placed& p : placed) {
+    const float area = 4.f * kPi * p.r * p.r;
+    const Vec3 L = colors[p.color] * float(double(total) * p.weight / weights / (kPi * area));
+    if (!is_finite(L)) n.at("radius").fail("too small for the given power (radiance overflows)");
+    const int32_t index = int32_t(s.lights.size());
+    s.lights.push_back(Light::sphere(p.c, p.r, L));
+    s.spheres.push_back(Sphere{p.c, p.r, material, index});
+  }
+}
+
 // Lights are given by `radiance` L or by total emitted `power` Phi (watts per
 // RGB channel). For a surface emitting L on one side into the hemisphere,
 // Phi = pi * A * L, so a sphere of radius r has L = Phi / (4 pi^2 r^2): with power
@@ -418,7 +525,7 @@ void parse_light(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
   n.require("type");
   std::string type = n.at("type").string();
   bool has_l = n.has("radiance"), has_p = n.has("power");
-  if (has_l == has_p) n.fail("give exactly one of 'radiance' or 'power'");
+  if (has_l == has_p && type != "scatter") n.fail("give exactly one of 'radiance' or 'power'");
   const float kMaxEmission = 1e9f;
   uint32_t black = 0;  // material 0 is the implicit black "light" material
   int32_t index = int32_t(s.lights.size());
@@ -444,8 +551,10 @@ void parse_light(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
     if (!is_finite(L)) n.fail("too small for the given power (radiance overflows)");
     s.lights.push_back(Light::quad(corner, e1, e2, L));
     add_instance(s, add_mesh(s, quad_mesh(n.path, corner, e1, e2)), Affine(), material, index);
+  } else if (type == "scatter") {
+    parse_scatter(n, s, material);
   } else {
-    n.at("type").fail("unknown light type '" + type + "' (expected sphere or quad)");
+    n.at("type").fail("unknown light type '" + type + "' (expected sphere, quad or scatter)");
   }
 }
 
@@ -490,6 +599,19 @@ std::string light_selection_names() { return enum_names(kNumLightSelections, lig
 bool find_light_selection(const std::string& name, LightSelection* out) {
   return find_enum(name, kNumLightSelections, light_selection_name, out);
 }
+std::string light_selection_label(LightSelection method, const RestirSettings& r) {
+  std::string s = light_selection_name(method);
+  if (method != LightSelection::Restir) return s;
+  s += " (" + std::to_string(r.candidates) + " candidates from " + light_selection_name(r.source);
+  if (r.spatial_passes > 0) {
+    char radius[32];
+    std::snprintf(radius, sizeof radius, "%g", double(r.radius));
+    s += ", " + std::to_string(r.spatial_passes) + " spatial pass" + (r.spatial_passes > 1 ? "es" : "") + " of " +
+         std::to_string(r.neighbors) + " neighbour" + (r.neighbors > 1 ? "s" : "") + " within " + radius + " px";
+  }
+  return s + (r.unbiased ? ", unbiased)" : ", BIASED)");
+}
+
 LightSelection parse_light_selection(const std::string& name, const std::string& where) {
   return parse_enum(name, where, "light selection", kNumLightSelections, light_selection_name);
 }
@@ -633,6 +755,15 @@ void parse_frame_settings(const json& doc, const std::string& source, CameraDesc
   *render = s.render;
 }
 
+namespace {
+// Whether parts[0..i] names a block of the scene format whose every key is
+// optional (render, render.restir): an override may create it.
+bool is_optional_block(const std::vector<std::string>& parts, size_t i) {
+  if (i == 0) return parts[0] == "render";
+  return i == 1 && parts[0] == "render" && parts[1] == "restir";
+}
+}  // namespace
+
 void apply_override(json& doc, const std::string& assignment, const std::string& source) {
   auto eq = assignment.find('=');
   auto fail = [&](const std::string& msg) -> void {
@@ -660,10 +791,13 @@ void apply_override(json& doc, const std::string& assignment, const std::string&
       if (idx >= cur->size()) fail("index " + p + " is out of range (size " + std::to_string(cur->size()) + ")");
       cur = &(*cur)[idx];
     } else if (cur->is_object()) {
-      // "render" is optional and so is each of its keys: an override creates the
-      // block, so that render options work on scene files without one.
-      if (!last && !cur->contains(p) && i == 0 && p == "render") (*cur)[p] = json::object();
-      if (!last && !cur->contains(p)) fail("no field '" + p + "' to descend into");
+      // "render" is optional and so is each of its keys, "render.restir" too:
+      // an override creates them, so that render options work on scene files
+      // without them (render.restir.candidates on a scene without that block).
+      if (!last && !cur->contains(p)) {
+        if (!is_optional_block(parts, i)) fail("no field '" + p + "' to descend into");
+        (*cur)[p] = json::object();
+      }
       if (last && cur->contains("radiance") && p == "power") cur->erase("radiance");
       if (last && cur->contains("power") && p == "radiance") cur->erase("power");
       cur = &(*cur)[p];
@@ -763,7 +897,9 @@ std::unique_ptr<HostSceneView> make_host_view(const Scene& scene) {
   SceneView& v = h->view;
   v.lights = scene.lights.data();
   v.num_lights = uint32_t(scene.lights.size());
-  v.selection.power_cdf = scene.light_cdf.empty() ? nullptr : scene.light_cdf.data();
+  v.selection = make_light_selection_view(scene, scene.light_cdf.empty() ? nullptr : scene.light_cdf.data(),
+                                          scene.light_bvh.nodes.empty() ? nullptr : scene.light_bvh.nodes.data(),
+                                          scene.light_bvh.trails.empty() ? nullptr : scene.light_bvh.trails.data());
   v.materials = scene.materials.data();
   v.num_materials = uint32_t(scene.materials.size());
   v.textures = h->textures.data();
@@ -793,6 +929,17 @@ std::unique_ptr<HostSceneView> make_host_view(const Scene& scene) {
       if (scene.lights[i].type == LightType::Environment) v.environment_light = int32_t(i);
   }
   return h;
+}
+
+LightSelectionView make_light_selection_view(const Scene& scene, const float* power_cdf, const LightBvhNode* bvh_nodes,
+                                             const uint64_t* bvh_trails) {
+  LightSelectionView v;
+  v.power_cdf = power_cdf;
+  if (bvh_nodes && bvh_trails) v.bvh = LightBvhView{bvh_nodes, bvh_trails};
+  for (size_t i = 0; i < scene.lights.size(); ++i)
+    if (scene.lights[i].type == LightType::Environment) v.infinite_light = int32_t(i);
+  v.infinite_probability = v.infinite_light >= 0 ? scene.infinite_light_probability : 0.f;
+  return v;
 }
 
 namespace {
@@ -910,6 +1057,22 @@ void finalize_scene(Scene& s) {
   }
   if (!s.lights.empty()) build_cdf(power.data(), power.size(), s.light_cdf.data());
   else s.light_cdf.clear();
+
+  // The light BVH over the lights with a surface; the environment beside it
+  // with its share of the power, clamped (core/light_selection.h).
+  s.light_bvh = build_light_bvh(s.lights, power);
+  s.infinite_light_probability = 0.f;
+  double total = 0, infinite = 0;
+  for (size_t i = 0; i < s.lights.size(); ++i) {
+    total += power[i];
+    if (s.lights[i].type == LightType::Environment) infinite += power[i];
+  }
+  if (env.texture >= 0) {
+    if (s.light_bvh.nodes.empty()) s.infinite_light_probability = 1.f;
+    else
+      s.infinite_light_probability = float(std::clamp(total > 0 ? infinite / total : 0.5, double(kMinInfiniteProbability),
+                                                      1.0 - double(kMinInfiniteProbability)));
+  }
 }
 
 namespace {
@@ -981,6 +1144,7 @@ IntegratorSettings Scene::integrator() const {
   s.strategy = render.strategy;
   s.mis = render.mis;
   s.light_selection = render.light_selection;
+  s.restir = render.restir;
   s.max_depth = render.max_depth;
   s.rr_depth = render.rr_depth;
   return s;

@@ -22,6 +22,7 @@
 #include "core/strategy.h"
 #include "core/texture.h"
 #include "core/transform.h"
+#include "scene/light_bvh_build.h"
 
 namespace pn {
 
@@ -116,6 +117,7 @@ struct RenderSettings {
   Strategy strategy = Strategy::SolidAngle;
   Mis mis = Mis::Power;  // what pbrt-v4 and Mitsuba 3 users expect; the thesis's scenes say "none"
   LightSelection light_selection = LightSelection::Power;
+  RestirSettings restir;  // light_selection "restir" only
   uint32_t seed = 0;
 };
 
@@ -131,6 +133,8 @@ struct Scene {
   std::vector<Instance> instances;    // every placement of a mesh in the world
   std::vector<Light> lights;          // spheres, quads, emissive triangles (world space), environment
   std::vector<float> light_cdf;       // power-proportional selection (LightSelection::Power), lights.size() + 1 entries
+  LightBvh light_bvh;                 // LightSelection::Bvh: every light with a surface and power
+  float infinite_light_probability = 0.f;  // LightSelection::Bvh: of the environment (core/light_selection.h)
   std::vector<TextureImage> textures;
   Environment environment;
   std::vector<std::string> warnings;  // non-fatal problems found while loading (missing textures, ...)
@@ -156,9 +160,14 @@ struct HostSceneView {
 };
 std::unique_ptr<HostSceneView> make_host_view(const Scene& scene);
 
+// The scene's LightSelectionView with its arrays at the given addresses (host
+// memory for the CPU, device memory for the GPU): the one place that fills it.
+LightSelectionView make_light_selection_view(const Scene& scene, const float* power_cdf, const LightBvhNode* bvh_nodes,
+                                             const uint64_t* bvh_trails);
+
 // Completes a parsed scene: a triangle light for every emissive triangle of
-// every instance, the environment's light and distribution, and the lights'
-// power-proportional selection CDF. parse_scene() calls it; code that builds a
+// every instance, the environment's light and distribution, the lights'
+// power-proportional selection CDF and their light BVH. parse_scene() calls it; code that builds a
 // Scene by hand calls it once when done.
 void finalize_scene(Scene& scene);
 
@@ -210,6 +219,10 @@ Mis parse_mis(const std::string& name, const std::string& where);
 std::string mis_names();  // "none, balance, power"
 bool find_light_selection(const std::string& name, LightSelection* out);
 LightSelection parse_light_selection(const std::string& name, const std::string& where);
-std::string light_selection_names();  // "uniform, power"
+std::string light_selection_names();  // "uniform, power, bvh, restir"
+// The method for reports: its name, with restir's settings, e.g. "restir (32
+// candidates from power, 2 spatial passes of 3 neighbours within 30 px,
+// unbiased)"; the biased variant says BIASED.
+std::string light_selection_label(LightSelection method, const RestirSettings& restir);
 
 }  // namespace pn

@@ -68,6 +68,13 @@ Check mis() {
     parse_mis(v.get<std::string>(), where);
   };
 }
+Check light_selection() {
+  return [](const ojson& v, const std::string& where) {
+    if (!v.is_string())
+      fail(where, "must be a light-selection method: " + light_selection_names() + " (got " + v.dump() + ")");
+    parse_light_selection(v.get<std::string>(), where);
+  };
+}
 // A file an action reads, or writes (`output`: checked now, before the first
 // frame, as every output of a command is).
 Check file(bool output, bool image, bool png_only = false) {
@@ -107,6 +114,7 @@ const std::map<std::string, Check>& checks() {
       {"reset", boolean(true)},       {"fov", number_in(1, 170)},
       {"fly", boolean()},             {"fly_speed", number_in(0, 1e9, true)},
       {"strategy", strategy()},       {"mis", mis()},
+      {"light_selection", light_selection()},
       {"spp_per_frame", integer_in(1, 4096)},
       {"max_depth", integer_in(0, 1000)},
       {"exposure", number_in(-64, 64)}, {"scale", number_in(0.05, 4)},

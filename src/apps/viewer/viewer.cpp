@@ -67,6 +67,7 @@ struct ImageSettings {
   CameraDesc camera;
   Strategy strategy = Strategy::SolidAngle;
   Mis mis = Mis::Power;
+  LightSelection selection = LightSelection::Power;
   int max_depth = 0;
   int width = 0, height = 0;
   bool split = false;  // the divider is not here: it only chooses which image each column shows
@@ -75,9 +76,9 @@ struct ImageSettings {
   std::vector<std::string> scene_overrides;  // the light's edits, on top of the command line's
 
   bool operator==(const ImageSettings& o) const {
-    return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && max_depth == o.max_depth && width == o.width &&
-           height == o.height && split == o.split && left == o.left && right == o.right &&
-           equal_time == o.equal_time && scene_overrides == o.scene_overrides;
+    return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && selection == o.selection &&
+           max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
+           right == o.right && equal_time == o.equal_time && scene_overrides == o.scene_overrides;
   }
 };
 
@@ -99,6 +100,23 @@ struct LightEdit {
     return e;
   }
 };
+
+// A combo box over one of the registries' enums, listed by their names.
+template <class E>
+void enum_combo(const char* label, E* value, int count, const char* (*name)(E)) {
+  struct Names {
+    const char* (*name)(E);
+  } names{name};
+  int i = int(*value);
+  if (ImGui::Combo(
+          label, &i,
+          [](void* data, int k, const char** out) {
+            *out = static_cast<Names*>(data)->name(E(k));
+            return true;
+          },
+          &names, count))
+    *value = E(i);
+}
 
 std::string num(float v) { return shortest_number(v).dump(); }
 std::string vec(Vec3 v) { return "[" + num(v.x) + "," + num(v.y) + "," + num(v.z) + "]"; }
@@ -172,6 +190,7 @@ class Viewer {
   CameraControl camera_;
   Strategy strategy_ = Strategy::SolidAngle;
   Mis mis_ = Mis::Power;
+  LightSelection selection_ = LightSelection::Power;
   int max_depth_ = 8;
   int spp_per_frame_ = 1;
   float exposure_ = 0.f;
@@ -223,6 +242,7 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   camera_ = CameraControl(scene_->camera);
   strategy_ = scene_->render.strategy;
   mis_ = scene_->render.mis;
+  selection_ = scene_->render.light_selection;
   max_depth_ = scene_->render.max_depth;
   spp_per_frame_ = opt_.spp_per_frame;
   exposure_ = opt_.exposure;
@@ -357,6 +377,7 @@ ImageSettings Viewer::wanted() const {
   s.camera = camera_.desc();
   s.strategy = strategy_;
   s.mis = mis_;
+  s.selection = selection_;
   s.max_depth = max_depth_;
   int fw = 0, fh = 0;
   glfwGetFramebufferSize(window_, &fw, &fh);
@@ -412,6 +433,7 @@ void Viewer::restart(const ImageSettings& s) {
   base.camera = Camera::look_at(c.eye, c.target, c.up, c.fov, s.width, s.height);
   base.integrator.max_depth = s.max_depth;
   base.integrator.mis = s.mis;
+  base.integrator.light_selection = s.selection;
   try {
     display_->resize(s.width, s.height);
   } catch (const std::exception& e) {  // registering the new size's pixel buffer with CUDA failed
@@ -562,6 +584,7 @@ void Viewer::save_camera_file(const std::string& path) {
   overrides.insert(overrides.end(), applied_.scene_overrides.begin(), applied_.scene_overrides.end());
   overrides.push_back("render.strategy=\"" + std::string(strategy_name(strategy_)) + "\"");
   overrides.push_back("render.mis=\"" + std::string(mis_name(mis_)) + "\"");
+  overrides.push_back("render.light_selection=\"" + std::string(light_selection_name(selection_)) + "\"");
   overrides.push_back("render.max_depth=" + std::to_string(max_depth_));
   std::string source;
   nlohmann::json doc = load_scene_json(opt_.scene, overrides, &source);
@@ -697,17 +720,13 @@ void Viewer::draw_panel() {
   };
   ImGui::Separator();
   if (!split_) strategy_combo("strategy", &strategy_);
-  {
-    int m = int(mis_);
-    if (ImGui::Combo(
-            "MIS", &m,
-            [](void*, int k, const char** out) {
-              *out = mis_name(Mis(k));
-              return true;
-            },
-            nullptr, kNumMisModes))
-      mis_ = Mis(m);
-  }
+  enum_combo("MIS", &mis_, kNumMisModes, mis_name);
+  // How the light of each sample is chosen (restir with the scene's
+  // render.restir settings; spatial reuse, no temporal reuse yet).
+  enum_combo("light selection", &selection_, kNumLightSelections, light_selection_name);
+  if (selection_ == LightSelection::Restir)
+    ImGui::TextDisabled("%s", light_selection_label(selection_, scene_->render.restir).c_str());
+  ImGui::TextDisabled("%zu lights", scene_->lights.size());
   ImGui::SliderInt("spp / frame", &spp_per_frame_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
   ImGui::SliderInt("max depth", &max_depth_, 0, 32);
   ImGui::SliderFloat("exposure", &exposure_, -8.f, 8.f, "%+.1f stops");
@@ -814,6 +833,7 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "fly_speed") fly_speed_ = v.get<float>();
   else if (k == "strategy") strategy_ = strategy();
   else if (k == "mis") mis_ = parse_mis(v.get<std::string>(), a.where);
+  else if (k == "light_selection") selection_ = parse_light_selection(v.get<std::string>(), a.where);
   else if (k == "spp_per_frame") spp_per_frame_ = v.get<int>();
   else if (k == "max_depth") max_depth_ = v.get<int>();
   else if (k == "exposure") exposure_ = v.get<float>();

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
 #include <exception>
 #include <mutex>
 #include <stdexcept>
@@ -19,6 +20,7 @@
 
 #include "core/geometry.h"
 #include "core/integrator.h"
+#include "core/restir.h"
 
 namespace pn {
 namespace {
@@ -84,6 +86,30 @@ void alpha_filter(const RTCFilterFunctionNArguments* args) {
     if (alpha_discards(*fd->view, fd->view->instances[idx], prim, b1, b2)) args->valid[i] = 0;
   }
 }
+
+// Threads wait here until all of them have arrived (C++17 has no std::barrier).
+class Barrier {
+ public:
+  explicit Barrier(int n) : n_(n) {}
+  void wait() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    const uint64_t generation = generation_;
+    if (++arrived_ == n_) {
+      arrived_ = 0;
+      ++generation_;
+      cv_.notify_all();
+      return;
+    }
+    cv_.wait(lock, [&] { return generation != generation_; });
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  const int n_;
+  int arrived_ = 0;
+  uint64_t generation_ = 0;
+};
 
 class CpuBackend final : public Backend {
  public:
@@ -221,82 +247,163 @@ class CpuBackend final : public Backend {
               const ProgressFn& progress) override {
     const int W = frame.camera.width, H = frame.camera.height;
     if (film.width() != W || film.height() != H) throw std::logic_error("film size differs from the camera's");
-    constexpr int kTile = 16;
-    const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
-    const int num_tiles = tiles_x * tiles_y;
-    const uint64_t total = uint64_t(W) * H * count;
-    std::atomic<int> next_tile{0};
-    std::atomic<uint64_t> done{0};
-    std::mutex progress_mutex, nonfinite_mutex;
     stats_ = RenderStats();
-    // An exception from `progress` (the Python module's Ctrl-C) stops the
-    // render: no thread takes another tile, and it is rethrown here.
-    std::exception_ptr stop;
+    if (restir_frame_passes(frame.integrator)) return render_restir(frame, film, first_sample, count, progress);
+    const uint64_t total = uint64_t(W) * H * count;
+    std::atomic<uint64_t> done{0};
     Tracer tracer{this};
     double* sum = film.sum();
     double* sum_sq = film.sum_sq();
-
-    auto worker = [&]() {
-      for (int t; (t = next_tile.fetch_add(1)) < num_tiles;) {
-        int x0 = (t % tiles_x) * kTile, y0 = (t / tiles_x) * kTile;
-        int x1 = std::min(x0 + kTile, W), y1 = std::min(y0 + kTile, H);
-        for (int y = y0; y < y1; ++y)
-          for (int x = x0; x < x1; ++x) {
-            double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
-            uint64_t bad = 0;
-            for (uint32_t i = 0; i < count; ++i) {
-              Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
-              if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
-                ++bad;
-                continue;
-              }
-              for (int c = 0; c < 3; ++c) {
-                s[c] += L[c];
-                s2[c] += double(L[c]) * L[c];
-              }
+    for_each_tile(W, H, 1, progress, [&](uint32_t, int x0, int y0, int x1, int y1) {
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+          uint64_t bad = 0;
+          for (uint32_t i = 0; i < count; ++i) {
+            Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
+            if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
+              ++bad;
+              continue;
             }
-            size_t o = (size_t(y) * W + x) * 3;
             for (int c = 0; c < 3; ++c) {
-              sum[o + c] += s[c];
-              sum_sq[o + c] += s2[c];
-            }
-            if (bad > 0) {
-              std::lock_guard<std::mutex> lock(nonfinite_mutex);
-              stats_.nonfinite += bad;
-              note_nonfinite_pixel(stats_, x, y, W);
+              s[c] += L[c];
+              s2[c] += double(L[c]) * L[c];
             }
           }
-        uint64_t d = done += uint64_t(x1 - x0) * (y1 - y0) * count;
-        if (progress) {
-          std::lock_guard<std::mutex> lock(progress_mutex);
-          if (stop) return;
-          try {
-            progress(d, total);
-          } catch (...) {
-            stop = std::current_exception();
-            next_tile = num_tiles;
-            return;
+          size_t o = (size_t(y) * W + x) * 3;
+          for (int c = 0; c < 3; ++c) {
+            sum[o + c] += s[c];
+            sum_sq[o + c] += s2[c];
           }
+          if (bad > 0) note_nonfinite(x, y, W, bad);
         }
-      }
-    };
-    std::vector<std::thread> pool;
-    for (int i = 1; i < threads_; ++i) pool.emplace_back(worker);
-    worker();
-    for (auto& th : pool) th.join();
-    if (stop) std::rethrow_exception(stop);  // the film holds part of the samples: callers discard it
+      return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0) * count, total);
+    });
     film.add_samples(count);
   }
 
   RenderStats last_render_stats() const override { return stats_; }
 
  private:
+  // Runs fn(phase, x0, y0, x1, y1) over the W x H frame's 16x16 tiles for
+  // phase = 0, 1, ..., phases - 1 in turn, on one pool of threads: every tile
+  // of a phase is done before any tile of the next (restir's passes read what
+  // the previous one wrote). fn returns (samples done, samples total) for
+  // `progress` (total 0: nothing to report). An exception from `progress` (the
+  // Python module's Ctrl-C) stops the work: no thread takes another tile, and
+  // it is rethrown here (the film then holds part of the samples: callers
+  // discard it).
+  template <class Fn>
+  void for_each_tile(int W, int H, uint32_t phases, const ProgressFn& progress, Fn&& fn) {
+    constexpr int kTile = 16;
+    const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
+    const int num_tiles = tiles_x * tiles_y;
+    std::atomic<int> next_tile[2];
+    next_tile[0] = next_tile[1] = 0;
+    std::mutex progress_mutex;
+    std::exception_ptr stop;
+    std::atomic<bool> stopped{false};
+    Barrier barrier(threads_);
+    auto worker = [&](int id) {
+      for (uint32_t phase = 0; phase < phases; ++phase) {
+        // The next phase's counter: no thread uses it since the last barrier.
+        if (id == 0) next_tile[(phase + 1) % 2] = 0;
+        std::atomic<int>& next = next_tile[phase % 2];
+        for (int t; !stopped && (t = next.fetch_add(1)) < num_tiles;) {
+          int x0 = (t % tiles_x) * kTile, y0 = (t / tiles_x) * kTile;
+          int x1 = std::min(x0 + kTile, W), y1 = std::min(y0 + kTile, H);
+          const std::pair<uint64_t, uint64_t> p = fn(phase, x0, y0, x1, y1);
+          if (progress && p.second > 0) {
+            std::lock_guard<std::mutex> lock(progress_mutex);
+            if (stop) break;
+            try {
+              progress(p.first, p.second);
+            } catch (...) {
+              stop = std::current_exception();
+              stopped = true;
+            }
+          }
+        }
+        if (phases > 1) barrier.wait();
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int i = 1; i < threads_; ++i) pool.emplace_back(worker, i);
+    worker(0);
+    for (auto& th : pool) th.join();
+    if (stop) std::rethrow_exception(stop);
+  }
+
+  // Non-finite samples are left out, counted and located (RenderStats).
+  void note_nonfinite(int x, int y, int W, uint64_t bad) {
+    std::lock_guard<std::mutex> lock(nonfinite_mutex_);
+    stats_.nonfinite += bad;
+    note_nonfinite_pixel(stats_, x, y, W);
+  }
+
+  // restir with spatial reuse (core/restir.h): per camera sample, the primary
+  // pass over every pixel, the spatial passes (reading one reservoir buffer,
+  // writing the other), then shading and accumulation; all as phases of one
+  // pool of threads.
+  void render_restir(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
+                     const ProgressFn& progress) {
+    const int W = frame.camera.width, H = frame.camera.height;
+    const size_t pixels = size_t(W) * H;
+    const IntegratorSettings& s = frame.integrator;
+    const uint32_t passes = s.restir.spatial_passes, phases_per_sample = passes + 2;
+    std::vector<RestirPixel> gbuffer(pixels);
+    std::vector<Reservoir> reservoirs[2] = {std::vector<Reservoir>(pixels), std::vector<Reservoir>(pixels)};
+    const uint64_t total = uint64_t(pixels) * count;
+    std::atomic<uint64_t> done{0};
+    Tracer tracer{this};
+    double* sum = film.sum();
+    double* sum_sq = film.sum_sq();
+    for_each_tile(W, H, count * phases_per_sample, progress, [&](uint32_t phase, int x0, int y0, int x1, int y1) {
+      const uint32_t sample = first_sample + phase / phases_per_sample, step = phase % phases_per_sample;
+      if (step == 0) {  // primary: the paths, their first vertex's reservoir into reservoirs[0]
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x) {
+            const size_t p = size_t(y) * W + x;
+            RestirPrimaryOut primary{&gbuffer[p], &reservoirs[0][p]};
+            gbuffer[p].L = render_sample(tracer, view_, frame.camera, s, x, y, sample, frame.seed, &primary);
+          }
+        return std::make_pair(uint64_t(0), uint64_t(0));
+      }
+      if (step <= passes) {  // spatial pass step - 1: reservoirs[(step - 1) % 2] -> reservoirs[step % 2]
+        const Reservoir* in = reservoirs[(step - 1) % 2].data();
+        Reservoir* out = reservoirs[step % 2].data();
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x)
+            out[size_t(y) * W + x] = restir_spatial_reuse(tracer, view_, s.restir, gbuffer.data(), in, W, H, x, y,
+                                                          sample, frame.seed, step - 1);
+        return std::make_pair(uint64_t(0), uint64_t(0));
+      }
+      const Reservoir* final_reservoirs = reservoirs[passes % 2].data();  // shading
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          const size_t p = size_t(y) * W + x;
+          const Vec3 L = gbuffer[p].L + restir_shade(tracer, view_, s, gbuffer[p], final_reservoirs[p]);
+          if (!is_finite(L)) {
+            note_nonfinite(x, y, W, 1);
+            continue;
+          }
+          for (int c = 0; c < 3; ++c) {
+            sum[3 * p + c] += L[c];
+            sum_sq[3 * p + c] += double(L[c]) * L[c];
+          }
+        }
+      return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0), total);
+    });
+    film.add_samples(count);
+  }
+
   std::unique_ptr<HostSceneView> host_;
   SceneView view_;
   FilterData filter_;
   std::vector<int> instance_of_geom_;  // top-level geometry ID -> instance index (-1: spheres)
   int threads_ = 1;
   RenderStats stats_;  // of the last render()
+  std::mutex nonfinite_mutex_;
   RTCDevice device_ = nullptr;
   RTCScene rtc_ = nullptr;              // top level: instances and the sphere set
   std::vector<RTCScene> mesh_scenes_;  // one per TriangleMesh

@@ -19,6 +19,7 @@
 #include "backends/optix/launch_params.h"
 #include "core/geometry.h"
 #include "core/integrator.h"
+#include "core/restir.h"
 #include "core/scene_view.h"
 
 namespace pn {
@@ -102,6 +103,12 @@ __forceinline__ __device__ void render_pixels() {
     Tracer tracer;
     float3 sum = make_float3(0.f, 0.f, 0.f), sum_sq = make_float3(0.f, 0.f, 0.f);
     uint32_t nonfinite = 0;
+    if (p.restir_pixels) {  // restir's primary pass: one sample, its first vertex's direct light left out
+      RestirPrimaryOut out{&p.restir_pixels[pixel], &p.restir_in[pixel]};
+      out.pixel->L = render_sample<kFeatures>(tracer, p.scene, p.camera, settings, px, py, p.first_sample, p.seed, &out);
+      p.sum[pixel] = make_float4(0.f, 0.f, 0.f, float(tracer.rays));
+      continue;
+    }
     for (uint32_t i = 0; i < p.spp; ++i) {
       Vec3 L = render_sample<kFeatures>(tracer, p.scene, p.camera, settings, px, py, p.first_sample + i, p.seed);
       if (!is_finite(L)) {  // as on the CPU: skipped, counted, reported by the host
@@ -142,6 +149,47 @@ using namespace pn::optix;
 PN_STRATEGIES(PN_X)
 #undef PN_X
 #undef PN_RAYGEN
+
+// restir's spatial reuse and shading passes (core/restir.h), one thread per
+// pixel of a W x H launch, every scene feature compiled in. The launch index
+// as a pixel: false outside the image.
+__forceinline__ __device__ bool launch_pixel(int* x, int* y, uint32_t* pixel) {
+  const uint3 idx = optixGetLaunchIndex();
+  *x = int(idx.x);
+  *y = int(idx.y);
+  *pixel = idx.y * uint32_t(P().camera.width) + idx.x;
+  return *x < P().camera.width && *y < P().camera.height;
+}
+
+extern "C" __global__ void __raygen__restir_spatial() {
+  const LaunchParams& p = P();
+  int x, y;
+  uint32_t pixel;
+  if (!launch_pixel(&x, &y, &pixel)) return;
+  Tracer tracer;
+  p.restir_out[pixel] = restir_spatial_reuse<kAllFeatures>(tracer, p.scene, p.integrator.restir, p.restir_pixels,
+                                                           p.restir_in, p.camera.width, p.camera.height, x, y,
+                                                           p.first_sample, p.seed, p.restir_pass);
+  p.sum[pixel].w += float(tracer.rays);
+}
+
+extern "C" __global__ void __raygen__restir_shade() {
+  const LaunchParams& p = P();
+  int x, y;
+  uint32_t pixel;
+  if (!launch_pixel(&x, &y, &pixel)) return;
+  Tracer tracer;
+  const RestirPixel& q = p.restir_pixels[pixel];
+  const Vec3 L = q.L + restir_shade<kAllFeatures>(tracer, p.scene, p.integrator, q, p.restir_in[pixel]);
+  const float rays = p.sum[pixel].w + float(tracer.rays);
+  if (!is_finite(L)) {  // as in render_pixels: skipped, counted
+    p.sum[pixel] = make_float4(0.f, 0.f, 0.f, rays);
+    p.sum_sq[pixel] = make_float4(0.f, 0.f, 0.f, 1.f);
+    return;
+  }
+  p.sum[pixel] = make_float4(L.x, L.y, L.z, rays);
+  p.sum_sq[pixel] = make_float4(L.x * L.x, L.y * L.y, L.z * L.z, 0.f);
+}
 
 extern "C" __global__ void __miss__radiance() { optixSetPayload_1(kMissMarker); }
 

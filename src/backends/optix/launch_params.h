@@ -12,6 +12,7 @@
 
 #include "core/camera.h"
 #include "core/integrator.h"
+#include "core/reservoir.h"
 #include "core/scene_view.h"
 
 namespace pn {
@@ -45,9 +46,15 @@ enum : uint32_t { kFeatureLevel_basic = 0, kFeatureLevel_textured = 1, kFeatureL
 constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {0u, kFeatureShading | kFeatureTextures, kAllFeatures};
 constexpr const char* kFeatureLevelNames[kNumFeatureLevels] = {"basic", "textured", "full"};
 
-// Raygen programs: two per strategy, without and with MIS, in registry order.
+// Raygen programs: two per strategy, without and with MIS, in registry order;
+// then restir's spatial-reuse and shading passes (core/restir.h), one program
+// each at the full feature level (they sample nothing by strategy: the MIS
+// weight's pdf is a run-time switch there).
 constexpr uint32_t kNumRaygens = 2 * uint32_t(kNumStrategies);
 PN_FN uint32_t raygen_index(Strategy s, Mis mis) { return 2u * uint32_t(s) + (mis == Mis::None ? 0u : 1u); }
+constexpr uint32_t kRaygenRestirSpatial = kNumRaygens;
+constexpr uint32_t kRaygenRestirShade = kNumRaygens + 1;
+constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 2;
 
 struct LaunchParams {
   OptixTraversableHandle handle = 0;  // the IAS; 0 for an empty scene (every ray misses)
@@ -65,6 +72,16 @@ struct LaunchParams {
   //   sum_sq.xyz sum of their squares                        sum_sq.w non-finite samples
   float4* sum = nullptr;
   float4* sum_sq = nullptr;
+  // restir's frame-level passes (null: an ordinary launch). The strategy's
+  // raygen program, with restir_pixels set, is the primary pass: it writes
+  // every pixel's shading point and reservoir (restir_in) and its rays into
+  // sum.w; the spatial raygen reads restir_in and writes restir_out (pass
+  // restir_pass), adding its rays; the shading raygen reads restir_in and
+  // writes sum and sum_sq as an ordinary launch does. One sample per pixel.
+  RestirPixel* restir_pixels = nullptr;
+  Reservoir* restir_in = nullptr;
+  Reservoir* restir_out = nullptr;
+  uint32_t restir_pass = 0;
 };
 
 }  // namespace optix

@@ -31,6 +31,7 @@
 #include "backends/optix/kernels.h"
 #include "backends/optix/launch_params.h"
 #include "core/geometry.h"
+#include "core/restir.h"
 #include "core/scene_view.h"
 #include "render/resources.h"
 
@@ -243,12 +244,16 @@ DeviceEstimate estimate_device_memory(const Scene& scene) {
   const Environment& env = scene.environment;
   e.geometry += (env.conditional_func.size() + env.conditional_cdf.size() + env.marginal_func.size() +
                  env.marginal_cdf.size()) * sizeof(float);
+  e.geometry += scene.light_bvh.bytes();  // the light BVH's nodes and trails
   for (const TextureImage& t : scene.textures) e.textures += t.texels.size() + sizeof(TextureView);
   // Per pixel: the launch's float4 sums (2 x 16), the double sums (2 x 24), the
   // non-finite counts (4) and the display's RGBA8 (4).
   e.width = scene.render.width;
   e.height = scene.render.height;
   e.frame = uint64_t(e.width) * uint64_t(e.height) * 88;
+  // restir's frame passes: a shading point and two reservoirs a pixel.
+  if (restir_frame_passes(scene.integrator()))
+    e.frame += uint64_t(e.width) * uint64_t(e.height) * (sizeof(RestirPixel) + 2 * sizeof(Reservoir));
   e.fixed = uint64_t(64) << 20;  // module, program groups, SBT, stacks, launch parameters
   return e;
 }
@@ -502,6 +507,13 @@ class OptixBackendImpl final : public OptixBackend {
     p.sum_sq = launch_sum_sq_.as<float4>();
 
     const uint32_t per_launch = split_granularity(frame, count);
+    // restir with spatial reuse: each sample is a frame of its own passes.
+    const bool restir = restir_frame_passes(frame.integrator);
+    if (restir && restir_pixels_.size() != pixels * sizeof(RestirPixel)) {
+      restir_pixels_.alloc(pixels * sizeof(RestirPixel), "restir's shading points", size_);
+      restir_a_.alloc(pixels * sizeof(Reservoir), "restir's reservoirs", size_);
+      restir_b_.alloc(pixels * sizeof(Reservoir), "restir's reservoirs", size_);
+    }
     const uint32_t launches = count == 0 ? 0 : (count + per_launch - 1) / per_launch;
     const uint64_t total = uint64_t(pixels) * count;
     // The raygen program of the strategy, with or without MIS.
@@ -545,9 +557,13 @@ class OptixBackendImpl final : public OptixBackend {
       Slot& s = slots_[j % kSlots];
       // Ordered after the previous launch on the stream; the host copy is staged
       // before cudaMemcpyAsync returns, so `p` may change right after.
-      PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
       PN_CUDA(cudaEventRecord(s.start, stream_));
-      PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, launch_x, launch_y, 1));
+      if (restir) {
+        launch_restir(p, sbt, unsigned(W), unsigned(H));
+      } else {
+        PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
+        PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, launch_x, launch_y, 1));
+      }
       PN_CUDA(cudaEventRecord(s.traced, stream_));
       accumulated_ += spp;
       const float scale = std::exp2(exposure_) / float(accumulated_);
@@ -580,7 +596,35 @@ class OptixBackendImpl final : public OptixBackend {
       size_t want = (size_t(1) << 20) / pixels;
       per_launch = uint32_t(std::max<size_t>(1, std::min<size_t>(want, 1024)));
     }
+    if (restir_frame_passes(frame.integrator)) per_launch = 1;  // each sample a frame of restir's passes
     return std::min(per_launch, std::max(count, 1u));
+  }
+
+  // One sample of every pixel by restir's passes (core/restir.h): the
+  // strategy's raygen program as the primary pass, the spatial passes
+  // ping-ponging between two reservoir buffers, then shading, which writes the
+  // launch sums the accumulation kernel reads. Ordered on the stream; each
+  // launch's parameters are staged before cudaMemcpyAsync returns.
+  // NOT YET RUN ON A GPU (written and compiled in a session without device
+  // time): scripts/gpu_check.sh compares it with the CPU backend.
+  void launch_restir(LaunchParams p, const OptixShaderBindingTable& primary_sbt, unsigned W, unsigned H) {
+    p.restir_pixels = restir_pixels_.as<RestirPixel>();
+    p.restir_in = restir_a_.as<Reservoir>();
+    p.restir_out = restir_b_.as<Reservoir>();
+    p.spp = 1;
+    PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
+    PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &primary_sbt, W, H, 1));
+    OptixShaderBindingTable sbt = primary_sbt;
+    sbt.raygenRecord = sbt_raygen_.dptr() + CUdeviceptr(optix::kRaygenRestirSpatial) * sizeof(EmptyRecord);
+    for (uint32_t pass = 0; pass < p.integrator.restir.spatial_passes; ++pass) {
+      p.restir_pass = pass;
+      PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
+      PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, W, H, 1));
+      std::swap(p.restir_in, p.restir_out);
+    }
+    sbt.raygenRecord = sbt_raygen_.dptr() + CUdeviceptr(optix::kRaygenRestirShade) * sizeof(EmptyRecord);
+    PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
+    PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, W, H, 1));
   }
 
   void render(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
@@ -725,7 +769,7 @@ class OptixBackendImpl final : public OptixBackend {
         PN_STRATEGIES(PN_X)
 #undef PN_X
     };
-    raygen_.assign(optix::kNumRaygens, nullptr);
+    raygen_.assign(optix::kNumRaygenPrograms, nullptr);
     for (int i = 0; i < kNumStrategies; ++i)
       for (Mis mis : {Mis::None, Mis::Power}) {
         const std::string entry = std::string("__raygen__") + strategy_enum_names[i] + (mis == Mis::None ? "_" : "_mis_") +
@@ -736,6 +780,14 @@ class OptixBackendImpl final : public OptixBackend {
         d.raygen.entryFunctionName = entry.c_str();
         make_group(d, &raygen_[optix::raygen_index(Strategy(i), mis)]);
       }
+    for (auto [index, entry] : {std::pair<uint32_t, const char*>{optix::kRaygenRestirSpatial, "__raygen__restir_spatial"},
+                                {optix::kRaygenRestirShade, "__raygen__restir_shade"}}) {
+      d = {};
+      d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
+      d.raygen.module = module_;
+      d.raygen.entryFunctionName = entry;
+      make_group(d, &raygen_[index]);
+    }
 
     d = {};
     d.kind = OPTIX_PROGRAM_GROUP_KIND_MISS;
@@ -834,6 +886,8 @@ class OptixBackendImpl final : public OptixBackend {
     upload(spheres_, spheres, "sphere records");
     upload(lights_, scene_.lights, "lights");
     upload(light_cdf_, scene_.light_cdf, "the light selection CDF");
+    upload(light_bvh_nodes_, scene_.light_bvh.nodes, "the light BVH");
+    upload(light_bvh_trails_, scene_.light_bvh.trails, "the light BVH");
     upload(materials_, scene_.materials, "materials");
 
     // Textures: one CUDA array and texture object each.
@@ -858,7 +912,8 @@ class OptixBackendImpl final : public OptixBackend {
     v = SceneView();
     v.lights = lights_.as<Light>();
     v.num_lights = uint32_t(scene_.lights.size());
-      v.selection.power_cdf = scene_.light_cdf.empty() ? nullptr : light_cdf_.as<float>();
+    v.selection = make_light_selection_view(scene_, light_cdf_.as<float>(), light_bvh_nodes_.as<LightBvhNode>(),
+                                            light_bvh_trails_.as<uint64_t>());
     v.materials = materials_.as<Material>();
     v.num_materials = uint32_t(scene_.materials.size());
     v.textures = texture_views_.as<TextureView>();
@@ -1138,10 +1193,12 @@ class OptixBackendImpl final : public OptixBackend {
     mesh_gas_.clear();
     meshes_.clear();
     textures_.clear();  // destroys the texture objects and their arrays
-    for (DeviceBuffer* b : {&sphere_gas_, &ias_, &instances_, &spheres_, &lights_, &light_cdf_, &materials_,
+    for (DeviceBuffer* b : {&sphere_gas_, &ias_, &instances_, &spheres_, &lights_, &light_cdf_, &light_bvh_nodes_,
+                            &light_bvh_trails_, &materials_,
                             &texture_views_, &env_marginal_func_, &env_marginal_cdf_, &env_conditional_func_,
                             &env_conditional_cdf_, &params_, &counters_, &compacted_size_, &sbt_raygen_, &sbt_miss_,
-                            &sbt_hit_, &launch_sum_, &launch_sum_sq_, &acc_sum_, &acc_sum_sq_, &acc_bad_, &rgba_})
+                            &sbt_hit_, &launch_sum_, &launch_sum_sq_, &acc_sum_, &acc_sum_sq_, &acc_bad_, &rgba_,
+                            &restir_pixels_, &restir_a_, &restir_b_})
       b->release();
     if (stream_) cudaStreamDestroy(stream_);
     stream_ = nullptr;
@@ -1166,7 +1223,7 @@ class OptixBackendImpl final : public OptixBackend {
   Slot slots_[kSlots];
   OptixDeviceContext context_ = nullptr;
   OptixModule module_ = nullptr, sphere_is_module_ = nullptr;
-  std::vector<OptixProgramGroup> raygen_;  // by optix::raygen_index(strategy, mis)
+  std::vector<OptixProgramGroup> raygen_;  // by optix::raygen_index(strategy, mis), then restir's passes
   OptixProgramGroup miss_[optix::kNumMissPrograms] = {}, hit_[optix::kNumHitGroups] = {};
   OptixPipeline pipeline_ = nullptr;
   OptixShaderBindingTable sbt_ = {};
@@ -1179,6 +1236,8 @@ class OptixBackendImpl final : public OptixBackend {
   std::vector<DeviceBuffer> mesh_gas_;
   std::vector<DeviceTexture> textures_;  // by scene texture index
   DeviceBuffer sphere_gas_, ias_, instances_, spheres_, lights_, light_cdf_, materials_, texture_views_;
+  DeviceBuffer light_bvh_nodes_, light_bvh_trails_;
+  DeviceBuffer restir_pixels_, restir_a_, restir_b_;  // restir's passes: shading points, reservoirs (ping-pong)
   DeviceBuffer env_marginal_func_, env_marginal_cdf_, env_conditional_func_, env_conditional_cdf_;
   DeviceBuffer params_, counters_, compacted_size_, sbt_raygen_, sbt_miss_, sbt_hit_;
   DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, acc_bad_, rgba_;

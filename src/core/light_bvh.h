@@ -1,0 +1,166 @@
+// A light BVH: light selection that adapts to the shading point (Conty Estevez
+// & Kulla 2018, "Importance Sampling of Many Lights with Adaptive Tree
+// Splitting"; the form of pbrt-v4's BVHLightSampler, written anew here).
+//
+// Every node bounds the lights below it: their box, their total power phi, and
+// the directions their emitting sides face (a cone of normals: axis w, half
+// angle theta_o; a sphere's normals cover every direction, theta_o = pi).
+// Every light penumbra has emits diffusely from one side, so each normal's
+// emission spans a hemisphere: theta_e = pi / 2 for all of them (pbrt keeps
+// theta_e per node for spotlights; we have none).
+//
+// The importance of a node at a shading point p with normal n bounds what its
+// lights can contribute there:
+//     I = phi * cos(theta') / d^2 * cos(theta'_i)
+// where d is the distance from p to the box's centre (never taken below the
+// box's bounding radius), theta' the smallest angle any emitting normal of the
+// node can make with the direction to p (theta_w - theta_o - theta_b, clamped
+// at 0; theta_w: between w and the direction from the box to p, theta_b: the
+// half angle the box's bounding sphere subtends at p), and theta'_i the
+// smallest angle between n and a direction into that bounding sphere. I is 0
+// only where no light of the node can contribute: theta' >= pi / 2 (every
+// emitting side faces away from p) or theta'_i >= pi / 2 (the whole node below
+// p's surface, where the BSDF, which only reflects, is 0).
+//
+// Traversal: from the root, go to child c with probability I_c / (I_0 + I_1),
+// remapping the one uniform u into [0, 1) at every level, until a leaf (one
+// light each). The probability of a given light (its pmf, which MIS needs for
+// directions BSDF sampling found) is the product of the same ratios along its
+// path, which a per-light bit trail encodes: bit k is the child taken at depth
+// k (1: the second), above the highest set bit nothing, so that trail 1 is the
+// root and 0 marks a light outside the tree (the environment, lights of zero
+// power).
+//
+// The tree is built on the host (scene/light_bvh_build.cpp) and stored flat:
+// node i's first child is node i + 1, its second `index`; a leaf holds its
+// light's index with kLightBvhLeaf set. The same arrays live in device memory
+// for the GPU.
+#pragma once
+
+#include "common.h"
+#include "lights.h"
+#include "vec.h"
+
+namespace pn {
+
+constexpr uint32_t kLightBvhLeaf = 0x80000000u;
+
+struct LightBvhNode {
+  Vec3 lo;                   // box of the emitting surfaces
+  float phi = 0.f;           // power (luminance of Phi), summed over the node's lights
+  Vec3 hi;
+  float cos_theta_o = 1.f;   // every emitting normal lies within theta_o of w (-1: any direction)
+  Vec3 w;                    // axis of the normals' cone (unit)
+  uint32_t index = 0;        // interior: second child; leaf: light index | kLightBvhLeaf
+};
+
+// cos(max(0, a - b)) and sin(max(0, a - b)) of angles given by cosines and
+// sines (both in [0, pi]).
+PN_FN float cos_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+  return cos_a > cos_b ? 1.f : cos_a * cos_b + sin_a * sin_b;
+}
+PN_FN float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+  return cos_a > cos_b ? 0.f : sin_a * cos_b - cos_a * sin_b;
+}
+
+// The importance I of the header at shading point p with unit normal n.
+PN_FN float light_bvh_importance(const LightBvhNode& b, Vec3 p, Vec3 n) {
+  const Vec3 pc = (b.lo + b.hi) * 0.5f;
+  const Vec3 to_p = p - pc;
+  const float dist2 = length_sq(to_p);
+  const float r2 = length_sq(b.hi - b.lo) * 0.25f;  // the box's bounding sphere, squared radius
+  const float d2 = pn_max(dist2, r2);
+  if (!(d2 > 0.f)) return 0.f;
+  // Angles: theta_b (the bounding sphere seen from p; every direction when p is inside it).
+  float cos_b = -1.f, sin_b = 0.f;
+  if (dist2 > r2) {
+    const float sin2_b = r2 / dist2;
+    sin_b = std::sqrt(sin2_b);
+    cos_b = safe_sqrt(1.f - sin2_b);
+  }
+  const Vec3 wi = dist2 > 0.f ? to_p * (1.f / std::sqrt(dist2)) : Vec3(0.f, 0.f, 1.f);
+  // theta' = max(0, theta_w - theta_o - theta_b), against theta_e = pi / 2.
+  const float cos_w = clamp(dot(b.w, wi), -1.f, 1.f), sin_w = safe_sqrt(1.f - cos_w * cos_w);
+  const float sin_o = safe_sqrt(1.f - b.cos_theta_o * b.cos_theta_o);
+  const float cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, b.cos_theta_o);
+  const float sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, b.cos_theta_o);
+  const float cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+  if (!(cos_p > 0.f)) return 0.f;
+  // theta'_i: the direction towards the box is -wi.
+  const float cos_i = clamp(-dot(n, wi), -1.f, 1.f), sin_i = safe_sqrt(1.f - cos_i * cos_i);
+  const float cos_pi = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+  if (!(cos_pi > 0.f)) return 0.f;
+  return b.phi * cos_p * cos_pi / d2;
+}
+
+// --- Selection by traversal, and the pmf of a given light ---------------------------
+
+struct LightBvhView {
+  const LightBvhNode* nodes = nullptr;  // null: no tree (no lights with a surface and power)
+  const uint64_t* trails = nullptr;     // per light (SceneView::lights): its bit trail, 0 outside the tree
+};
+
+struct LightBvhPick {
+  uint32_t light = 0;
+  float pmf = 0.f;  // 0: nothing (no node has importance at p)
+};
+
+// The probability of the first child at an interior node, from its children's
+// importance; -1 when neither has any (traversal stops there).
+PN_FN float light_bvh_first_child_probability(const LightBvhView& v, uint32_t node, const LightSampleContext& ctx) {
+  const float i0 = light_bvh_importance(v.nodes[node + 1], ctx.p, ctx.n);
+  const float i1 = light_bvh_importance(v.nodes[v.nodes[node].index], ctx.p, ctx.n);
+  if (!(i0 > 0.f || i1 > 0.f)) return -1.f;
+  return i0 / (i0 + i1);
+}
+
+// One light, by one traversal with the uniform u.
+PN_FN LightBvhPick light_bvh_select(const LightBvhView& v, const LightSampleContext& ctx, float u) {
+  LightBvhPick pick;
+  if (!v.nodes) return pick;
+  uint32_t node = 0;
+  float pmf = 1.f;
+  while (!(v.nodes[node].index & kLightBvhLeaf)) {
+    const float p0 = light_bvh_first_child_probability(v, node, ctx);
+    if (p0 < 0.f) return pick;
+    if (u < p0) {
+      u = pn_min(u / p0, kOneMinusEpsilon);
+      pmf *= p0;
+      node = node + 1;
+    } else {
+      u = pn_min((u - p0) / (1.f - p0), kOneMinusEpsilon);
+      pmf *= 1.f - p0;
+      node = v.nodes[node].index;
+    }
+  }
+  // A root that is a leaf (one light) has no parent that checked it.
+  if (node == 0 && !(light_bvh_importance(v.nodes[0], ctx.p, ctx.n) > 0.f)) return pick;
+  pick.light = v.nodes[node].index & ~kLightBvhLeaf;
+  pick.pmf = pmf;
+  return pick;
+}
+
+// The probability that light_bvh_select() picks `light` at ctx: the same
+// ratios, in the same floating-point operations, along the light's trail.
+PN_FN float light_bvh_pmf(const LightBvhView& v, const LightSampleContext& ctx, uint32_t light) {
+  if (!v.nodes) return 0.f;
+  uint64_t trail = v.trails[light];
+  if (trail == 0) return 0.f;
+  uint32_t node = 0;
+  float pmf = 1.f;
+  for (; trail > 1u; trail >>= 1) {
+    const float p0 = light_bvh_first_child_probability(v, node, ctx);
+    if (p0 < 0.f) return 0.f;
+    if (trail & 1u) {
+      pmf *= 1.f - p0;
+      node = v.nodes[node].index;
+    } else {
+      pmf *= p0;
+      node = node + 1;
+    }
+  }
+  if (node == 0 && !(light_bvh_importance(v.nodes[0], ctx.p, ctx.n) > 0.f)) return 0.f;
+  return pmf;
+}
+
+}  // namespace pn
