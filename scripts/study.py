@@ -867,17 +867,18 @@ def finish_lab(args, lab, out_dir, head, sweeps):
 # selected by power, is shared through the cache); the lights-count sweep of
 # many-spheres; and `penumbra bench` for cost and memory per method.
 MANY_PRESETS = {
-    "full": dict(headline=dict(width=960, height=540, reference_spp=8192, max_spp=256, seeds=2), lights=10000,
-                 sweep=dict(width=320, height=180, reference_spp=4096, max_spp=64, seeds=2),
-                 counts=[10, 100, 1000, 10000, 100000]),
+    "full": dict(headline=dict(width=960, height=540, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096),
+                 lights=10000, counts=[10, 100, 1000, 10000, 100000],
+                 sweep=dict(width=320, height=180, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096)),
     # The numbers: 10,000 lights at 1080p on the GPU.
-    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=4096, max_spp=128, seeds=2), lights=10000,
-                sweep=dict(width=480, height=270, reference_spp=4096, max_spp=64, seeds=2),
-                counts=[10, 100, 1000, 10000, 100000]),
+    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=4096),
+                lights=10000, counts=[10, 100, 1000, 10000, 100000],
+                sweep=dict(width=480, height=270, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096)),
     # At 24x16 every lamp is smaller than a pixel, and the pixels it covers in part escape the mask of lamp
     # pixels: the smoke runs look at the floor from below the lamps (none in view).
-    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=2), lights=500,
-                  sweep=dict(width=16, height=12, reference_spp=512, max_spp=16, seeds=2), counts=[10, 100, 1000],
+    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=2, reference_chunk=512),
+                  lights=500, counts=[10, 100, 1000],
+                  sweep=dict(width=16, height=12, reference_spp=512, max_spp=16, seeds=2, reference_chunk=256),
                   sets=["camera.eye=[0,0.18,-3]", "camera.target=[0,0,-2.505]", "camera.fov=30"]),
 }
 MANY_SCENES = {"many-spheres": "defaults.lights", "sponza-lanterns": None}
