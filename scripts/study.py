@@ -223,14 +223,17 @@ def plan_on_ray(args, runs):
     return [(r, p) for r, p in kept if r.group not in dropped]
 
 
+# What the Ray executor needs of a run: its files' folder, and the Run for its options.
+RayRun = namedtuple("RayRun", "name scene sets out run")
+
+
 def run_on_ray(args, planned):
     """Runs the planned runs as Ray tasks (scripts/study_ray.py), which leave each
     run's files in its folder as `penumbra converge` would. {run folder: error}
     for the runs that failed."""
     import study_ray
-    experiments = [dict(name=r.name, scene=r.scene, sets=list(r.sets), out=run_dir(args, r),
-                        options=converge_options(args, r), plan=p) for r, p in planned]
-    return study_ray.execute(args, experiments)
+    runs = [(RayRun(r.name, r.scene, r.sets, run_dir(args, r), r), p) for r, p in planned]
+    return study_ray.execute(args, runs, lambda a, ray_run: converge_options(a, ray_run.run))
 
 
 def run_key(r):
@@ -906,11 +909,13 @@ def many_plan(args, cfg, out_dir):
     head, sweeps = [], {}
     if args.only != "sweeps":
         for scene, count_key in MANY_SCENES.items():
+            if args.scene and scene not in args.scene:
+                continue
             sets = (f"{count_key}={cfg['lights']}",) + tuple(cfg.get("sets", ())) if count_key else ()
             head += [Run(f"{scene}-{sel}", scene, cfg["headline"], sets + tuple(extra), tuple(MANY_STRATEGIES),
                          ("power",), out_dir, None if count_key else scene)
                      for sel, extra in MANY_SELECTIONS.items()]
-    if args.only != "headline":
+    if args.only != "headline" and (not args.scene or "many-spheres" in args.scene):
         for sel in MANY_SWEEP_SELECTIONS:
             sweeps[sel] = [Run(f"count-{n}-{sel}", "many-spheres", cfg["sweep"],
                                (f"defaults.lights={n}",) + tuple(cfg.get("sets", ())) + tuple(MANY_SELECTIONS[sel]),
@@ -1130,7 +1135,7 @@ def main():
                          "methods at equal time and the lights-count sweep (docs/results/many-lights/README.md); "
                          "all: the three")
     ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
-    ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES)),
+    ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES) | set(MANY_SCENES)),
                     help="run only this headline scene (repeatable): split a long study over several GPU calls, "
                          "then --report-only over the merged runs")
     ap.add_argument("--check", action="store_true", help="assert slopes and the near-light win (CI smoke test)")
