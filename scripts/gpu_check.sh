@@ -98,8 +98,10 @@ compare_pair() {  # compare_pair CPU_NAME GPU_NAME LABEL
   "$penumbra" compare "$out/$1.exr" "$out/${1}_var.exr" "$out/$2.exr" "$out/${2}_var.exr" | tee "$out/${2}_compare.txt"
   record "$3" "${PIPESTATUS[0]}"
 }
-scenes=$(if [[ -n ${GPU_CHECK_SCENES:-} ]]; then tr ' ' '\n' <<<"$GPU_CHECK_SCENES"; else "$penumbra" scenes | awk '{print $1}'; fi)
-listed() { grep -qx -- "$1" <<<"$scenes"; }
+# `listed`: what this build has (GPU_CHECK_SCENES narrows step 2 only, not the other steps' scenes).
+builtin=$("$penumbra" scenes | awk '{print $1}')
+scenes=$(if [[ -n ${GPU_CHECK_SCENES:-} ]]; then tr ' ' '\n' <<<"$GPU_CHECK_SCENES"; else echo "$builtin"; fi)
+listed() { grep -qx -- "$1" <<<"$builtin"; }
 present_real=()
 for scene in $real_scenes; do
   if listed "$scene"; then present_real+=("$scene")
