@@ -10,7 +10,7 @@ namespace pn {
 // The order in which the CPU advances paths (core/integrator.h's step
 // functions). Both give the same image, bit for bit.
 enum class CpuSchedule {
-  DepthFirst,    // one path at a time, to its end (trace_path): the default, and the fastest here
+  DepthFirst,    // one path at a time, to its end (trace_path): the default
   BreadthFirst,  // a pool of paths per tile, one step at a time, in a wavefront GPU's order (tests)
 };
 
