@@ -2,9 +2,10 @@
 // reservoir resampling for real-time ray tracing with dynamic direct lighting"),
 // run by the backends over a whole frame, one camera sample per pixel at a time:
 //
-//   1. primary: every pixel's camera path (core/integrator.h, trace_path with a
-//      RestirPrimaryOut): its first vertex's M candidates resampled into a
-//      reservoir (make_reservoir), the rest of the path's radiance kept aside;
+//   1. primary: every pixel's camera path (core/integrator.h, the step
+//      functions with a RestirPrimaryOut): its first vertex's M candidates
+//      resampled into a reservoir (reservoir_before_visibility, W set by its
+//      shadow query), the rest of the path's radiance kept aside;
 //   2. spatial (spatial_passes times): every pixel combines its reservoir with
 //      those of k random neighbours within the radius (restir_spatial_reuse);
 //   3. shade: every pixel's direct light from its final reservoir, weighted by

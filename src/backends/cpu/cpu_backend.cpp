@@ -4,7 +4,10 @@
 // Embree filter functions that ask core/scene_view.h's alpha_discards(), as the
 // GPU's any-hit program does. Work is split into 16x16 tiles taken by a
 // pool of threads; every pixel sample has its own RNG stream, so the image does
-// not depend on the number of threads or on the order tiles are taken.
+// not depend on the number of threads or on the order tiles are taken. Paths
+// run depth-first (trace_path) or, as an option, breadth-first: a pool of a
+// tile's paths advanced a step at a time in the order of a wavefront GPU's
+// kernels (trace_pool), which gives the same image.
 #include "backends/cpu/cpu_backend.h"
 
 #include <algorithm>
@@ -114,7 +117,8 @@ class Barrier {
 class CpuBackend final : public Backend {
  public:
   // The scene must outlive the backend: its arrays are traced in place.
-  CpuBackend(const Scene& scene, int threads) : host_(make_host_view(scene)), view_(host_->view) {
+  CpuBackend(const Scene& scene, int threads, CpuSchedule schedule)
+      : host_(make_host_view(scene)), view_(host_->view), schedule_(schedule) {
     filter_.view = &view_;
     filter_.instance_of_geom = &instance_of_geom_;
     threads_ = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -195,7 +199,7 @@ class CpuBackend final : public Backend {
   std::string device_name() const override {
     return std::to_string(threads_) + " CPU thread" + (threads_ > 1 ? "s" : "") + " (Embree " +
            std::to_string(RTC_VERSION_MAJOR) + "." + std::to_string(RTC_VERSION_MINOR) + "." +
-           std::to_string(RTC_VERSION_PATCH) + ")";
+           std::to_string(RTC_VERSION_PATCH) + (schedule_ == CpuSchedule::BreadthFirst ? ", breadth-first" : "") + ")";
   }
 
   // The integrator's view of Embree.
@@ -254,30 +258,42 @@ class CpuBackend final : public Backend {
     Tracer tracer{this};
     double* sum = film.sum();
     double* sum_sq = film.sum_sq();
+    const bool breadth_first = schedule_ == CpuSchedule::BreadthFirst;
     for_each_tile(W, H, 1, progress, [&](uint32_t, int x0, int y0, int x1, int y1) {
+      const int tw = x1 - x0, th = y1 - y0;
+      std::vector<PixelSum> sums(size_t(tw) * th);
+      if (!breadth_first) {
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x)
+            for (uint32_t i = 0; i < count; ++i)
+              sums[size_t(y - y0) * tw + (x - x0)].add(
+                  render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed));
+      } else {
+        // Pools of at most kPoolPaths paths: every pixel of the tile, a run of its samples.
+        const uint32_t run = std::max<uint32_t>(1, uint32_t(kPoolPaths / sums.size()));
+        std::vector<PathState> pool;
+        for (uint32_t i0 = 0; i0 < count; i0 += run) {
+          const uint32_t n = std::min(run, count - i0);
+          pool.clear();
+          for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x)
+              for (uint32_t i = 0; i < n; ++i)
+                pool.push_back(start_path(frame.camera, x, y, first_sample + i0 + i, frame.seed));
+          trace_pool(tracer, frame.integrator, pool, nullptr);
+          for (size_t k = 0; k < pool.size(); ++k) sums[k / n].add(pool[k].L);  // each pixel's samples in order
+        }
+      }
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
-          double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
-          uint64_t bad = 0;
-          for (uint32_t i = 0; i < count; ++i) {
-            Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
-            if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
-              ++bad;
-              continue;
-            }
-            for (int c = 0; c < 3; ++c) {
-              s[c] += L[c];
-              s2[c] += double(L[c]) * L[c];
-            }
-          }
-          size_t o = (size_t(y) * W + x) * 3;
+          const PixelSum& ps = sums[size_t(y - y0) * tw + (x - x0)];
+          const size_t o = (size_t(y) * W + x) * 3;
           for (int c = 0; c < 3; ++c) {
-            sum[o + c] += s[c];
-            sum_sq[o + c] += s2[c];
+            sum[o + c] += ps.s[c];
+            sum_sq[o + c] += ps.s2[c];
           }
-          if (bad > 0) note_nonfinite(x, y, W, bad);
+          if (ps.bad > 0) note_nonfinite(x, y, W, ps.bad);
         }
-      return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0) * count, total);
+      return std::make_pair(done += uint64_t(tw) * th * count, total);
     });
     film.add_samples(count);
   }
@@ -285,6 +301,59 @@ class CpuBackend final : public Backend {
   RenderStats last_render_stats() const override { return stats_; }
 
  private:
+  // One pixel's samples, summed in sample order (the same order for every schedule).
+  struct PixelSum {
+    double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+    uint64_t bad = 0;
+    void add(const Vec3& L) {
+      if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
+        ++bad;
+        return;
+      }
+      for (int c = 0; c < 3; ++c) {
+        s[c] += L[c];
+        s2[c] += double(L[c]) * L[c];
+      }
+    }
+  };
+
+  static constexpr size_t kPoolPaths = 4096;
+
+  // The breadth-first schedule: the paths of a pool (started by start_path)
+  // advanced to their ends one step at a time, in the order of a wavefront
+  // GPU's kernels:
+  //   1. the closest hit of every active path's ray;
+  //   2. the shadow rays of every query the last step made, traced, then
+  //      consumed (on_shadow_result): after the closest hits of the paths'
+  //      next rays, and from the pool's last path to its first;
+  //   3. every hit or miss consumed (on_hit / on_miss): new queries, next rays.
+  // primary: restir's primary pass, one output per path (else null).
+  void trace_pool(const Tracer& tracer, const IntegratorSettings& s, std::vector<PathState>& pool,
+                  RestirPrimaryOut* primary) const {
+    const size_t n = pool.size();
+    std::vector<HitRecord> hits(n);
+    std::vector<uint8_t> found(n), blocked(n);
+    std::vector<ShadowQuery> queries(n);  // kind None: nothing pending
+    for (bool shaded = true; shaded;) {
+      for (size_t i = 0; i < n; ++i)
+        if (pool[i].active) found[i] = tracer.intersect(pool[i].ray, kInf, &hits[i]);
+      for (size_t i = n; i-- > 0;)
+        if (queries[i].kind != ShadowKind::None) blocked[i] = tracer.occluded(queries[i].ray, queries[i].tmax);
+      for (size_t i = n; i-- > 0;)
+        if (queries[i].kind != ShadowKind::None) {
+          on_shadow_result(pool[i], queries[i], blocked[i] != 0, primary ? &primary[i] : nullptr);
+          queries[i] = ShadowQuery();
+        }
+      shaded = false;
+      for (size_t i = 0; i < n; ++i) {
+        if (!pool[i].active) continue;
+        shaded = true;
+        if (found[i]) queries[i] = on_hit(pool[i], view_, s, hits[i], primary ? &primary[i] : nullptr);
+        else on_miss(pool[i], view_, s);
+      }
+    }
+  }
+
   // Runs fn(phase, x0, y0, x1, y1) over the W x H frame's 16x16 tiles for
   // phase = 0, 1, ..., phases - 1 in turn, on one pool of threads: every tile
   // of a phase is done before any tile of the next (restir's passes read what
@@ -361,6 +430,19 @@ class CpuBackend final : public Backend {
     for_each_tile(W, H, count * phases_per_sample, progress, [&](uint32_t phase, int x0, int y0, int x1, int y1) {
       const uint32_t sample = first_sample + phase / phases_per_sample, step = phase % phases_per_sample;
       if (step == 0) {  // primary: the paths, their first vertex's reservoir into reservoirs[0]
+        if (schedule_ == CpuSchedule::BreadthFirst) {
+          std::vector<PathState> pool;
+          std::vector<RestirPrimaryOut> primary;
+          for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x) {
+              const size_t p = size_t(y) * W + x;
+              primary.push_back(RestirPrimaryOut{&gbuffer[p], &reservoirs[0][p]});
+              pool.push_back(start_path(frame.camera, x, y, sample, frame.seed, &primary.back()));
+            }
+          trace_pool(tracer, s, pool, primary.data());
+          for (size_t k = 0; k < pool.size(); ++k) primary[k].pixel->L = pool[k].L;
+          return std::make_pair(uint64_t(0), uint64_t(0));
+        }
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
             const size_t p = size_t(y) * W + x;
@@ -399,6 +481,7 @@ class CpuBackend final : public Backend {
 
   std::unique_ptr<HostSceneView> host_;
   SceneView view_;
+  CpuSchedule schedule_ = CpuSchedule::DepthFirst;
   FilterData filter_;
   std::vector<int> instance_of_geom_;  // top-level geometry ID -> instance index (-1: spheres)
   int threads_ = 1;
@@ -412,8 +495,8 @@ class CpuBackend final : public Backend {
 
 }  // namespace
 
-std::unique_ptr<Backend> make_cpu_backend(const Scene& scene, int threads) {
-  return std::make_unique<CpuBackend>(scene, threads);
+std::unique_ptr<Backend> make_cpu_backend(const Scene& scene, int threads, CpuSchedule schedule) {
+  return std::make_unique<CpuBackend>(scene, threads, schedule);
 }
 
 }  // namespace pn

@@ -2,7 +2,9 @@
 // and embedded in the executable.
 //
 // The raygen program runs THE integrator, pn::render_sample from
-// core/integrator.h, with a Tracer whose two queries are optixTrace calls:
+// core/integrator.h (the depth-first driver of its step functions; WAVEFRONT.md
+// proposes kernels over the same steps), with a Tracer whose two queries are
+// optixTrace calls:
 //   intersect(): closest hit. The closest-hit programs only report what the
 //                CPU backend's Embree query reports (a HitRecord: t, instance,
 //                primitive, barycentrics) in payload registers; the integrator
