@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -131,9 +132,13 @@ class Builder {
   RTCDevice device_ = nullptr;
 };
 
-// Bottom-level leaves: up to 8 triangles (the SAH decides; GPUs like them small).
-constexpr uint32_t kMeshLeafSize = 8;
-static_assert(kMeshLeafSize <= kMaxLeafSize, "leaf sizes must fit the reference");
+// Bottom-level leaves: up to 8 triangles (the SAH decides), or PENUMBRA_CUDA_LEAF
+// (1..16: tuning).
+uint32_t mesh_leaf_size() {
+  const char* env = std::getenv("PENUMBRA_CUDA_LEAF");
+  const int v = env ? std::atoi(env) : 8;
+  return (v >= 1 && v <= int(kMaxLeafSize)) ? uint32_t(v) : 8u;
+}
 
 }  // namespace
 
@@ -168,6 +173,7 @@ BvhHost build_bvh(const Scene& scene) {
   std::vector<bool> mesh_built(scene.meshes.size(), false);
   std::vector<RTCBounds> mesh_bounds(scene.meshes.size());
   size_t leaves = 0;
+  const uint32_t leaf_size = mesh_leaf_size();
   for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
     const TriangleMesh& m = scene.meshes[mi];
     if (!placed[mi] || m.indices.empty()) continue;
@@ -185,7 +191,7 @@ BvhHost build_bvh(const Scene& scene) {
     }
     mesh_bounds[mi] = {lo_all.x, lo_all.y, lo_all.z, 0.f, hi_all.x, hi_all.y, hi_all.z, 0.f};
     uint32_t depth = 0;
-    mesh_root[mi] = builder.build(prims, kMeshLeafSize, out, &depth, [&](const uint32_t* ids, uint32_t count) {
+    mesh_root[mi] = builder.build(prims, leaf_size, out, &depth, [&](const uint32_t* ids, uint32_t count) {
       const uint32_t first = uint32_t(out.triangles.size());
       for (uint32_t i = 0; i < count; ++i) {
         const auto& idx = m.indices[ids[i]];
