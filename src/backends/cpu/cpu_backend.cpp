@@ -493,10 +493,27 @@ class CpuBackend final : public Backend {
   unsigned sphere_geom_ = RTC_INVALID_GEOMETRY_ID;
 };
 
+class CpuRayQueries final : public RayQueries {
+ public:
+  explicit CpuRayQueries(const Scene& scene) : backend_(scene, 1), tracer_{&backend_} {}
+  bool intersect(const Ray& ray, float tmax, HitRecord* hit) const override {
+    return tracer_.intersect(ray, tmax, hit);
+  }
+  bool occluded(const Ray& ray, float tmax) const override { return tracer_.occluded(ray, tmax); }
+
+ private:
+  CpuBackend backend_;
+  CpuBackend::Tracer tracer_;
+};
+
 }  // namespace
 
 std::unique_ptr<Backend> make_cpu_backend(const Scene& scene, int threads, CpuSchedule schedule) {
   return std::make_unique<CpuBackend>(scene, threads, schedule);
+}
+
+std::unique_ptr<RayQueries> make_cpu_ray_queries(const Scene& scene) {
+  return std::make_unique<CpuRayQueries>(scene);
 }
 
 }  // namespace pn

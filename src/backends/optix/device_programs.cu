@@ -193,6 +193,27 @@ extern "C" __global__ void __raygen__restir_shade() {
   p.sum_sq[pixel] = make_float4(L.x * L.x, L.y * L.y, L.z * L.z, 0.f);
 }
 
+// The trace stage's optix implementation: one ray of params.trace_rays per
+// thread, the Tracer's own queries, nothing shaded (bench --probe compares it
+// with the cuda traversal on the same rays).
+extern "C" __global__ void __raygen__trace_closest() {
+  const LaunchParams& p = P();
+  const uint32_t i = optixGetLaunchIndex().x;
+  if (i >= p.trace_count) return;
+  const TraceRay r = p.trace_rays[i];
+  HitRecord h;
+  if (!Tracer().intersect(Ray(r.o, r.d), r.tmax, &h)) h.instance = kTraceMiss;
+  p.trace_hits[i] = h;
+}
+
+extern "C" __global__ void __raygen__trace_shadow() {
+  const LaunchParams& p = P();
+  const uint32_t i = optixGetLaunchIndex().x;
+  if (i >= p.trace_count) return;
+  const TraceRay r = p.trace_rays[i];
+  if (Tracer().occluded(Ray(r.o, r.d), r.tmax)) atomicOr(&p.trace_bits[i / 32u], 1u << (i % 32u));
+}
+
 extern "C" __global__ void __miss__radiance() { optixSetPayload_1(kMissMarker); }
 
 extern "C" __global__ void __miss__shadow() { optixSetPayload_0(0u); }

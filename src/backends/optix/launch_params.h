@@ -13,6 +13,7 @@
 #include "core/camera.h"
 #include "core/integrator.h"
 #include "core/reservoir.h"
+#include "backends/trace_stage.h"
 #include "core/scene_view.h"
 
 namespace pn {
@@ -54,7 +55,10 @@ constexpr uint32_t kNumRaygens = 2 * uint32_t(kNumStrategies);
 PN_FN uint32_t raygen_index(Strategy s, Mis mis) { return 2u * uint32_t(s) + (mis == Mis::None ? 0u : 1u); }
 constexpr uint32_t kRaygenRestirSpatial = kNumRaygens;
 constexpr uint32_t kRaygenRestirShade = kNumRaygens + 1;
-constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 2;
+// The trace stage's trace-only launches (backends/trace_stage.h): rays in, hits or bits out.
+constexpr uint32_t kRaygenTraceClosest = kNumRaygens + 2;
+constexpr uint32_t kRaygenTraceShadow = kNumRaygens + 3;
+constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 4;
 
 struct LaunchParams {
   OptixTraversableHandle handle = 0;  // the IAS; 0 for an empty scene (every ray misses)
@@ -82,6 +86,12 @@ struct LaunchParams {
   Reservoir* restir_in = nullptr;
   Reservoir* restir_out = nullptr;
   uint32_t restir_pass = 0;
+  // Trace-only launches (1D, trace_count threads): closest hits into trace_hits
+  // (instance kTraceMiss for a miss), or blocked bits ORed into trace_bits.
+  const TraceRay* trace_rays = nullptr;
+  HitRecord* trace_hits = nullptr;
+  uint32_t* trace_bits = nullptr;
+  uint32_t trace_count = 0;
 };
 
 }  // namespace optix

@@ -452,7 +452,8 @@ class OptixBackendImpl final : public OptixBackend {
             {"cuda_driver_api", std::to_string(drv / 1000) + "." + std::to_string((drv % 1000) / 10)},
             {"optix", optix_version_string(OPTIX_VERSION) + " (ABI " + std::to_string(OPTIX_ABI_VERSION) + ")"},
             {"kernel", optix::kFeatureLevelNames[feature_level_]},
-            {"spheres", sphere_mode()}};
+            {"spheres", sphere_mode()},
+            {"rtcore_version", std::to_string(rtcore_version())}};
   }
 
   RenderStats last_render_stats() const override { return stats_; }
@@ -627,6 +628,39 @@ class OptixBackendImpl final : public OptixBackend {
     PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, W, H, 1));
   }
 
+  void trace_closest(const TraceRay* rays, uint32_t count, HitRecord* hits) override {
+    LaunchParams p = base_params_;
+    p.trace_rays = rays;
+    p.trace_hits = hits;
+    p.trace_count = count;
+    launch_trace(p, optix::kRaygenTraceClosest);
+  }
+  void trace_shadow(const TraceRay* rays, uint32_t count, uint32_t* blocked_bits) override {
+    use_device();
+    PN_CUDA(cudaMemsetAsync(blocked_bits, 0, trace_bit_words(count) * sizeof(uint32_t), stream_));
+    LaunchParams p = base_params_;
+    p.trace_rays = rays;
+    p.trace_bits = blocked_bits;
+    p.trace_count = count;
+    launch_trace(p, optix::kRaygenTraceShadow);
+  }
+  void* cuda_stream() const override { return stream_; }
+  SceneView device_scene_view() const override { return base_params_.scene; }
+  unsigned rtcore_version() const override {
+    unsigned v = 0;
+    PN_OPTIX(optixDeviceContextGetProperty(context_, OPTIX_DEVICE_PROPERTY_RTCORE_VERSION, &v, sizeof v));
+    return v;
+  }
+
+  void launch_trace(const LaunchParams& p, uint32_t raygen) {
+    if (p.trace_count == 0) return;
+    use_device();
+    OptixShaderBindingTable sbt = sbt_;
+    sbt.raygenRecord = sbt_raygen_.dptr() + CUdeviceptr(raygen) * sizeof(EmptyRecord);
+    PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
+    PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, p.trace_count, 1, 1));
+  }
+
   void render(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
               const ProgressFn& progress) override {
     use_device();
@@ -781,7 +815,9 @@ class OptixBackendImpl final : public OptixBackend {
         make_group(d, &raygen_[optix::raygen_index(Strategy(i), mis)]);
       }
     for (auto [index, entry] : {std::pair<uint32_t, const char*>{optix::kRaygenRestirSpatial, "__raygen__restir_spatial"},
-                                {optix::kRaygenRestirShade, "__raygen__restir_shade"}}) {
+                                {optix::kRaygenRestirShade, "__raygen__restir_shade"},
+                                {optix::kRaygenTraceClosest, "__raygen__trace_closest"},
+                                {optix::kRaygenTraceShadow, "__raygen__trace_shadow"}}) {
       d = {};
       d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
       d.raygen.module = module_;
