@@ -495,7 +495,7 @@ class CpuBackend final : public Backend {
 
 class CpuRayQueries final : public RayQueries {
  public:
-  explicit CpuRayQueries(const Scene& scene) : backend_(scene, 1), tracer_{&backend_} {}
+  explicit CpuRayQueries(const Scene& scene) : backend_(scene, 1, CpuSchedule::DepthFirst), tracer_{&backend_} {}
   bool intersect(const Ray& ray, float tmax, HitRecord* hit) const override {
     return tracer_.intersect(ray, tmax, hit);
   }
