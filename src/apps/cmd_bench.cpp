@@ -109,6 +109,21 @@ std::string cpu_model() {
   return "unknown";
 }
 
+// The head of bench's JSON files: the tool, when, which build, on what.
+json bench_json(const char* tool, const std::string& device,
+                const std::vector<std::pair<std::string, std::string>>& info) {
+  json j;
+  j["tool"] = tool;
+  j["date"] = utc_now();
+  j["git_commit"] = PENUMBRA_GIT_COMMIT;
+  j["device"] = device;
+  json dev = json::object();
+  for (const auto& kv : info) dev[kv.first] = kv.second;
+  dev["host_cpu"] = cpu_model();
+  j["device_info"] = dev;
+  return j;
+}
+
 std::vector<std::string> split_list(const std::vector<std::string>& items) {
   std::vector<std::string> out;
   for (const std::string& item : items) {
@@ -228,15 +243,7 @@ int run_probe(const BenchArgs& a) {
              r.shadow_mismatched > r.rays / 5000;
   }
   if (!a.json_path.empty()) {
-    json j;
-    j["tool"] = "penumbra bench --probe";
-    j["date"] = utc_now();
-    j["git_commit"] = PENUMBRA_GIT_COMMIT;
-    j["device"] = device;
-    json dev = json::object();
-    for (const auto& kv : info) dev[kv.first] = kv.second;
-    dev["host_cpu"] = cpu_model();
-    j["device_info"] = dev;
+    json j = bench_json("penumbra bench --probe", device, info);
     j["traversal_auto"] = choice;
     j["settings"] = {{"rays_per_launch", ps.rays}, {"warmup_launches", ps.warmup}, {"timed_launches", ps.launches},
                      {"seed", ps.seed}, {"sets", a.sets}};
@@ -495,16 +502,8 @@ int run_bench(const BenchArgs& a) {
 
   // ---- JSON ----
   if (!a.json_path.empty()) {
-    json j;
-    j["tool"] = "penumbra bench";
-    j["date"] = utc_now();
-    j["git_commit"] = PENUMBRA_GIT_COMMIT;
+    json j = bench_json("penumbra bench", device_name, info);
     j["backend"] = backend_name;
-    j["device"] = device_name;
-    json dev = json::object();
-    for (const auto& kv : info) dev[kv.first] = kv.second;
-    dev["host_cpu"] = cpu_model();
-    j["device_info"] = dev;
     j["settings"] = {{"width", W},
                      {"height", H},
                      {"spp_per_launch", a.spp_per_launch},
