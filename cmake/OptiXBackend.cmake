@@ -91,8 +91,9 @@ set(PENUMBRA_OPTIX_VERSION_STRING "${_pn_optix_major}.${_pn_optix_minor}.${_pn_o
 
 add_subdirectory(src/backends/optix)
 add_subdirectory(src/backends/cuda)  # the trace stage's cuda traversal and `bench --probe`
+add_subdirectory(src/backends/wavefront)  # the wavefront path tracer's GPU driver (--wavefront)
 
-target_link_libraries(penumbra_lib PUBLIC penumbra_optix penumbra_cuda_trace)
+target_link_libraries(penumbra_lib PUBLIC penumbra_optix penumbra_cuda_trace penumbra_wavefront)
 target_compile_definitions(penumbra_lib PUBLIC PN_HAVE_OPTIX=1 PN_HAVE_CUDA_TRACE=1)
 set(PENUMBRA_HAVE_OPTIX ON)
 set(PENUMBRA_OPTIX_SUMMARY

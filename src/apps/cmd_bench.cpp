@@ -24,6 +24,7 @@
 
 #include "apps/commands.h"
 #include "apps/exit_status.h"
+#include "apps/options.h"
 #include "io/output.h"
 #include "render/backend.h"
 #include "render/resources.h"
@@ -54,6 +55,8 @@ struct BenchArgs {
   int spp_per_launch = 1;
   int max_depth = 8;
   int threads = 0;
+  bool wavefront = false;
+  std::string traversal = "auto";
   bool no_display = false;
   std::string json_path;
   bool probe = false;              // the trace stage alone (run_probe)
@@ -356,6 +359,8 @@ int run_bench(const BenchArgs& a) {
     BackendOptions opts;
     opts.threads = a.threads;
     opts.spp_per_launch = a.spp_per_launch;
+    opts.wavefront = a.wavefront;
+    opts.traversal = a.traversal;
     std::string note;
     std::unique_ptr<Backend> backend = make_backend(backend_name.empty() ? a.backend : backend_name, scene, opts, &note);
     if (backend_name.empty()) {
@@ -452,6 +457,18 @@ int run_bench(const BenchArgs& a) {
   const bool gpu = backend_name != "cpu";
   std::printf("\npenumbra bench: %s (%s), %dx%d, %d spp/launch, max depth %d, median of %d launches after %d warm-up\n",
               backend_name.c_str(), device_name.c_str(), W, H, a.spp_per_launch, a.max_depth, launches, warmup);
+  {  // the wavefront's path state (issue 11: under 1 GiB at 1080p)
+    std::string tracer, paths, bytes, pool;
+    for (const auto& kv : info) {
+      if (kv.first == "path_tracer") tracer = kv.second;
+      if (kv.first == "wavefront_paths") paths = kv.second;
+      if (kv.first == "wavefront_path_bytes") bytes = kv.second;
+      if (kv.first == "wavefront_pool") pool = kv.second;
+    }
+    if (tracer == "wavefront")
+      std::printf("wavefront: %s paths in the pool, %s bytes of state and queues a path, %s on the GPU\n",
+                  paths.c_str(), bytes.c_str(), pool.c_str());
+  }
   std::printf("%-16s %-28s %-8s %9s %9s %9s %9s %9s %8s %8s %10s %9s %8s\n", "scene", "technique", "select",
               "ms/launch", "min", "p10", "p90", "max", "trace", "accum", "Msamples/s", "Grays/s", "vs area");
   for (const Result& r : results) {
@@ -611,6 +628,7 @@ Command add_bench_command(CLI::App& app) {
       ->check(CLI::Range(1, 65536));
   sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces")->capture_default_str()->check(CLI::Range(0, 64));
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  add_wavefront_options(sub, &a->wavefront, &a->traversal);
   sub->add_flag("--no-tonemap", a->no_display, "GPU: time accumulation only, without the per-launch tone-map");
   sub->add_option("--json", a->json_path, "Write the results as JSON to this file");
   sub->add_flag("--probe", a->probe,

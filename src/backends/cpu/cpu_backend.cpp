@@ -7,7 +7,8 @@
 // not depend on the number of threads or on the order tiles are taken. Paths
 // run depth-first (trace_path) or, as an option, breadth-first: a pool of a
 // tile's paths advanced a step at a time in the order of a wavefront GPU's
-// kernels (trace_pool), which gives the same image.
+// kernels (trace_pool), which gives the same image; or as the GPU wavefront does: its stage functions
+// (backends/wavefront/wavefront.h) in loops over a whole-frame pool (render_wavefront), the same image again.
 #include "backends/cpu/cpu_backend.h"
 
 #include <algorithm>
@@ -24,6 +25,7 @@
 #include "core/geometry.h"
 #include "core/integrator.h"
 #include "core/restir.h"
+#include "backends/wavefront/wavefront.h"
 
 namespace pn {
 namespace {
@@ -117,8 +119,9 @@ class Barrier {
 class CpuBackend final : public Backend {
  public:
   // The scene must outlive the backend: its arrays are traced in place.
-  CpuBackend(const Scene& scene, int threads, CpuSchedule schedule)
-      : host_(make_host_view(scene)), view_(host_->view), schedule_(schedule) {
+  CpuBackend(const Scene& scene, int threads, CpuSchedule schedule, uint32_t wavefront_paths = 0)
+      : host_(make_host_view(scene)), view_(host_->view), schedule_(schedule),
+        wavefront_paths_(wavefront_paths > 0 ? wavefront_paths : (1u << 20)) {
     filter_.view = &view_;
     filter_.instance_of_geom = &instance_of_geom_;
     threads_ = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -199,7 +202,9 @@ class CpuBackend final : public Backend {
   std::string device_name() const override {
     return std::to_string(threads_) + " CPU thread" + (threads_ > 1 ? "s" : "") + " (Embree " +
            std::to_string(RTC_VERSION_MAJOR) + "." + std::to_string(RTC_VERSION_MINOR) + "." +
-           std::to_string(RTC_VERSION_PATCH) + (schedule_ == CpuSchedule::BreadthFirst ? ", breadth-first" : "") + ")";
+           std::to_string(RTC_VERSION_PATCH) + (schedule_ == CpuSchedule::BreadthFirst ? ", breadth-first"
+            : schedule_ == CpuSchedule::Wavefront  ? ", wavefront"
+                                                   : "") + ")";
   }
 
   // The integrator's view of Embree.
@@ -253,6 +258,7 @@ class CpuBackend final : public Backend {
     if (film.width() != W || film.height() != H) throw std::logic_error("film size differs from the camera's");
     stats_ = RenderStats();
     if (restir_frame_passes(frame.integrator)) return render_restir(frame, film, first_sample, count, progress);
+    if (schedule_ == CpuSchedule::Wavefront) return render_wavefront(frame, film, first_sample, count, progress);
     const uint64_t total = uint64_t(W) * H * count;
     std::atomic<uint64_t> done{0};
     Tracer tracer{this};
@@ -352,6 +358,107 @@ class CpuBackend final : public Backend {
         else on_miss(pool[i], view_, s);
       }
     }
+  }
+
+  // Calls fn(i) for i in [0, n) on the backend's threads (chunks taken from a counter).
+  template <class Fn>
+  void parallel_for(uint32_t n, Fn&& fn) const {
+    constexpr uint32_t kChunk = 64;
+    const int threads = int(std::min<uint32_t>(uint32_t(threads_), (n + kChunk - 1) / kChunk));
+    std::atomic<uint32_t> next{0};
+    auto work = [&] {
+      for (uint32_t i0; (i0 = next.fetch_add(kChunk)) < n;)
+        for (uint32_t i = i0; i < std::min(n, i0 + kChunk); ++i) fn(i);
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (auto& th : pool) th.join();
+  }
+
+  // The Wavefront schedule: the GPU wavefront's stages (backends/wavefront/wavefront.h), each a loop over its
+  // queue on the backend's threads, Embree as the trace stage; the render call's pixels x samples in waves of
+  // wavefront_paths_ slots. Every pixel's samples are summed in sample order (PixelSum), as depth-first.
+  void render_wavefront(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
+                        const ProgressFn& progress) {
+    const int W = frame.camera.width, H = frame.camera.height;
+    const uint32_t pixels = uint32_t(W) * uint32_t(H);
+    const uint64_t items = uint64_t(pixels) * count;
+    const uint32_t capacity = uint32_t(std::min<uint64_t>(wavefront_paths_, std::max<uint64_t>(items, 1)));
+    const IntegratorSettings& s = frame.integrator;
+    // The pool: host arrays with the GPU's layout.
+    std::vector<Vec3> beta(capacity), L(capacity), contribution(capacity);
+    std::vector<Rng> rng(capacity);
+    std::vector<PrevVertex> prev(capacity);
+    std::vector<int32_t> depth(capacity);
+    std::vector<uint32_t> rays(capacity), slots[3] = {std::vector<uint32_t>(capacity),
+                                                       std::vector<uint32_t>(capacity),
+                                                       std::vector<uint32_t>(capacity)};
+    std::vector<TraceRay> queue_rays[3] = {std::vector<TraceRay>(capacity), std::vector<TraceRay>(capacity),
+                                           std::vector<TraceRay>(capacity)};
+    std::vector<HitRecord> hits(capacity);
+    std::vector<uint32_t> bits(trace_bit_words(capacity));
+    uint32_t counts[3] = {0, 0, 0};
+    WaveSpec wave;
+    WavefrontView w;
+    w.wave = &wave;
+    w.pool = PathPool{beta.data(), L.data(), rng.data(), prev.data(), depth.data(), rays.data()};
+    for (int q = 0; q < 2; ++q) w.ray[q] = RayQueue{queue_rays[q].data(), slots[q].data(), &counts[q]};
+    w.shadow = ShadowQueue{queue_rays[2].data(), slots[2].data(), contribution.data(), &counts[2]};
+    w.hits = hits.data();
+    w.blocked_bits = bits.data();
+    w.capacity = capacity;
+
+    // The accumulation's sink: the render call's PixelSums (a pixel's samples in order).
+    std::vector<PixelSum> sums(pixels);
+    struct Sink {
+      PixelSum* sums;
+      PixelSum* ps = nullptr;
+      void begin(uint32_t pixel, bool) { ps = &sums[pixel]; }
+      void add(const Vec3& radiance, uint32_t) { ps->add(radiance); }
+      void end(uint32_t) {}
+    };
+    Tracer tracer{this};
+    for (uint64_t k0 = 0; k0 < items; k0 += capacity) {
+      wave = WaveSpec{k0, uint32_t(std::min<uint64_t>(capacity, items - k0)), first_sample, pixels, frame.seed};
+      parallel_for(capacity, [&](uint32_t i) { generate_camera_ray(i, w, frame.camera); });
+      // max_depth + 1 iterations (wavefront.h); the GPU's graph runs exactly these, so more is an error here.
+      for (int it = 0, cur = 0; counts[cur] > 0 || counts[2] > 0; ++it, cur ^= 1) {
+        if (it > s.max_depth) throw std::logic_error("wavefront: paths left after max_depth + 1 iterations");
+        const RayQueue& in = w.ray[cur];
+        const uint32_t n_rays = counts[cur], n_shadow = counts[2];
+        parallel_for(n_rays, [&](uint32_t j) {
+          const TraceRay& r = in.rays[j];
+          if (!tracer.intersect(Ray(r.o, r.d), r.tmax, &hits[j])) hits[j].instance = kTraceMiss;
+        });
+        parallel_for(trace_bit_words(n_shadow), [&](uint32_t word) {
+          uint32_t b = 0;
+          for (uint32_t j = 32 * word; j < std::min(n_shadow, 32 * word + 32); ++j) {
+            const TraceRay& r = w.shadow.rays[j];
+            if (tracer.occluded(Ray(r.o, r.d), r.tmax)) b |= 1u << (j % 32);
+          }
+          bits[word] = b;
+        });
+        parallel_for(n_shadow, [&](uint32_t j) { apply_shadow_result(j, w); });
+        begin_bounce(w, cur ^ 1);
+        parallel_for(n_rays, [&](uint32_t j) { shade<kAllFeatures>(j, w, cur, view_, s); });
+      }
+      parallel_for(std::min(wave.count, pixels), [&](uint32_t i) {
+        Sink sink{sums.data()};
+        accumulate(i, w, sink);
+      });
+      if (progress) progress(k0 + wave.count, items);
+    }
+    double* sum = film.sum();
+    double* sum_sq = film.sum_sq();
+    for (uint32_t p = 0; p < pixels; ++p) {
+      for (int c = 0; c < 3; ++c) {
+        sum[3 * size_t(p) + c] += sums[p].s[c];
+        sum_sq[3 * size_t(p) + c] += sums[p].s2[c];
+      }
+      if (sums[p].bad > 0) note_nonfinite(int(p % uint32_t(W)), int(p / uint32_t(W)), W, sums[p].bad);
+    }
+    film.add_samples(count);
   }
 
   // Runs fn(phase, x0, y0, x1, y1) over the W x H frame's 16x16 tiles for
@@ -482,6 +589,7 @@ class CpuBackend final : public Backend {
   std::unique_ptr<HostSceneView> host_;
   SceneView view_;
   CpuSchedule schedule_ = CpuSchedule::DepthFirst;
+  uint32_t wavefront_paths_ = 1u << 20;
   FilterData filter_;
   std::vector<int> instance_of_geom_;  // top-level geometry ID -> instance index (-1: spheres)
   int threads_ = 1;
@@ -508,8 +616,9 @@ class CpuRayQueries final : public RayQueries {
 
 }  // namespace
 
-std::unique_ptr<Backend> make_cpu_backend(const Scene& scene, int threads, CpuSchedule schedule) {
-  return std::make_unique<CpuBackend>(scene, threads, schedule);
+std::unique_ptr<Backend> make_cpu_backend(const Scene& scene, int threads, CpuSchedule schedule,
+                                          uint32_t wavefront_paths) {
+  return std::make_unique<CpuBackend>(scene, threads, schedule, wavefront_paths);
 }
 
 std::unique_ptr<RayQueries> make_cpu_ray_queries(const Scene& scene) {

@@ -1,6 +1,7 @@
 // The CPU reference backend: Embree 3 for ray queries, all cores, tiled.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 
 #include "render/backend.h"
@@ -12,10 +13,14 @@ namespace pn {
 enum class CpuSchedule {
   DepthFirst,    // one path at a time, to its end (trace_path): the default
   BreadthFirst,  // a pool of paths per tile, one step at a time, in a wavefront GPU's order (tests)
+  Wavefront,     // the GPU wavefront's stages (backends/wavefront/wavefront.h) over a whole-frame pool (tests)
 };
 
+// wavefront_paths: the Wavefront schedule's pool (slots; 0: 2^20); a render call runs in waves of that many
+// paths, the last one partial.
 std::unique_ptr<Backend> make_cpu_backend(const Scene& scene, int threads,
-                                          CpuSchedule schedule = CpuSchedule::DepthFirst);
+                                          CpuSchedule schedule = CpuSchedule::DepthFirst,
+                                          uint32_t wavefront_paths = 0);
 
 // The backend's two ray queries alone, answered by its Embree scene: the
 // reference the other traversals (backends/cuda) are tested against.

@@ -39,8 +39,10 @@ __device__ __forceinline__ Ray load_ray(const TraceRay* rays, uint32_t i, float*
 }
 
 __global__ void __launch_bounds__(kMaxBlock) closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
-                                                         uint32_t count, HitRecord* hits) {
+                                                         uint32_t count, const uint32_t* device_count,
+                                                         HitRecord* hits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (device_count) count = *device_count;
   if (i >= count) return;
   float tmax;
   const Ray ray = load_ray(rays, i, &tmax);
@@ -51,8 +53,11 @@ __global__ void __launch_bounds__(kMaxBlock) closest_kernel(BvhView bvh, SceneVi
 
 // Every thread of a warp reaches the ballot; its lane 0 writes the warp's word.
 __global__ void __launch_bounds__(kMaxBlock) shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
-                                                        uint32_t count, uint32_t* bits) {
+                                                        uint32_t count, const uint32_t* device_count,
+                                                        uint32_t* bits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (device_count) count = *device_count;
+  if ((i & ~31u) >= count) return;  // a whole warp past the end: no word of its to write
   bool blocked = false;
   if (i < count) {
     float tmax;
@@ -98,7 +103,7 @@ void CudaTraversal::trace_closest(const TraceRay* rays, uint32_t count, HitRecor
                                   void* stream) const {
   if (count == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  closest_kernel<<<blocks(count), block_size(), 0, s>>>(view_, scene, rays, count, hits);
+  closest_kernel<<<blocks(count), block_size(), 0, s>>>(view_, scene, rays, count, nullptr, hits);
   check(cudaGetLastError(), "launching the closest-hit kernel");
 }
 
@@ -106,7 +111,23 @@ void CudaTraversal::trace_shadow(const TraceRay* rays, uint32_t count, uint32_t*
                                  const SceneView& scene, void* stream) const {
   if (count == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  shadow_kernel<<<blocks(count), block_size(), 0, s>>>(view_, scene, rays, count, blocked_bits);
+  shadow_kernel<<<blocks(count), block_size(), 0, s>>>(view_, scene, rays, count, nullptr, blocked_bits);
+  check(cudaGetLastError(), "launching the shadow kernel");
+}
+
+void CudaTraversal::trace_closest(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity,
+                                  HitRecord* hits, const SceneView& scene, void* stream) const {
+  if (capacity == 0) return;
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  closest_kernel<<<blocks(capacity), block_size(), 0, s>>>(view_, scene, rays, capacity, device_count, hits);
+  check(cudaGetLastError(), "launching the closest-hit kernel");
+}
+
+void CudaTraversal::trace_shadow(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity,
+                                 uint32_t* blocked_bits, const SceneView& scene, void* stream) const {
+  if (capacity == 0) return;
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  shadow_kernel<<<blocks(capacity), block_size(), 0, s>>>(view_, scene, rays, capacity, device_count, blocked_bits);
   check(cudaGetLastError(), "launching the shadow kernel");
 }
 

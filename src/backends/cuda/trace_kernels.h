@@ -27,6 +27,12 @@ class CudaTraversal {
                      void* stream) const;
   void trace_shadow(const TraceRay* rays, uint32_t count, uint32_t* blocked_bits, const SceneView& scene,
                     void* stream) const;
+  // The same over a queue whose length is in device memory (`device_count`, at most `capacity`): the launch's
+  // size is fixed, so a CUDA graph can hold it (the wavefront, backends/wavefront); threads past the count exit.
+  void trace_closest(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity, HitRecord* hits,
+                     const SceneView& scene, void* stream) const;
+  void trace_shadow(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity, uint32_t* blocked_bits,
+                    const SceneView& scene, void* stream) const;
 
   uint64_t device_bytes() const { return bytes_; }
   const BvhStats& stats() const { return stats_; }

@@ -199,7 +199,7 @@ extern "C" __global__ void __raygen__restir_shade() {
 extern "C" __global__ void __raygen__trace_closest() {
   const LaunchParams& p = P();
   const uint32_t i = optixGetLaunchIndex().x;
-  if (i >= p.trace_count) return;
+  if (i >= (p.trace_count_device ? *p.trace_count_device : p.trace_count)) return;
   const TraceRay r = p.trace_rays[i];
   HitRecord h;
   if (!Tracer().intersect(Ray(r.o, r.d), r.tmax, &h)) h.instance = kTraceMiss;
@@ -209,7 +209,7 @@ extern "C" __global__ void __raygen__trace_closest() {
 extern "C" __global__ void __raygen__trace_shadow() {
   const LaunchParams& p = P();
   const uint32_t i = optixGetLaunchIndex().x;
-  if (i >= p.trace_count) return;
+  if (i >= (p.trace_count_device ? *p.trace_count_device : p.trace_count)) return;
   const TraceRay r = p.trace_rays[i];
   if (Tracer().occluded(Ray(r.o, r.d), r.tmax)) atomicOr(&p.trace_bits[i / 32u], 1u << (i % 32u));
 }

@@ -92,6 +92,9 @@ struct LaunchParams {
   HitRecord* trace_hits = nullptr;
   uint32_t* trace_bits = nullptr;
   uint32_t trace_count = 0;
+  // Where set, the number of rays is this device value instead (at most trace_count, the launch's width): the
+  // wavefront's queues, whose lengths the GPU writes, in launches a CUDA graph replays.
+  const uint32_t* trace_count_device = nullptr;
 };
 
 }  // namespace optix
