@@ -55,20 +55,9 @@ height=${GPU_CHECK_HEIGHT:-72}
 spp=${GPU_CHECK_SPP:-1024}
 real_scenes=${GPU_CHECK_REAL_SCENES:-glossy sponza}
 
-source "$root/scripts/check_record.sh"  # record NAME STATUS, finish_checks TITLE, gpu_build DIR TITLE
+source "$root/scripts/check_record.sh"  # record, finish_checks, gpu_build, check_build
 
-if [[ -z $build ]]; then
-  build=$root/build-gpu-check
-  gpu_build "$build" gpu_check
-fi
-build=$(cd "$build" && pwd)
-penumbra=$build/penumbra
-out=${GPU_CHECK_OUT:-$build/gpu_check}
-mkdir -p "$out"
-if [[ ! -x $penumbra ]]; then
-  echo "gpu_check: FAIL: no executable $penumbra"
-  exit 1
-fi
+check_build gpu_check "$build" "${GPU_CHECK_OUT:-}"  # sets build, penumbra, out
 echo "== $("$penumbra" render cornell-sphere --backend optix --width 8 --height 8 --spp 1 -o "$out/probe.exr" 2>&1 | head -n 1)"
 
 # 1. Unit tests.

@@ -34,20 +34,9 @@ height=${WAVEFRONT_CHECK_HEIGHT:-72}
 spp=${WAVEFRONT_CHECK_SPP:-256}
 check_scenes=${WAVEFRONT_CHECK_SCENES:-"cornell-sphere cornell-quad occlusion glossy sponza"}
 
-source "$root/scripts/check_record.sh"  # record NAME STATUS, finish_checks TITLE, gpu_build DIR TITLE
+source "$root/scripts/check_record.sh"  # record, finish_checks, gpu_build, check_build
 
-if [[ -z $build ]]; then
-  build=$root/build-gpu-check
-  gpu_build "$build" wavefront_check
-fi
-build=$(cd "$build" && pwd)
-penumbra=$build/penumbra
-out=${WAVEFRONT_CHECK_OUT:-$build/wavefront_check}
-mkdir -p "$out"
-if [[ ! -x $penumbra ]]; then
-  echo "wavefront_check: FAIL: no executable $penumbra"
-  exit 1
-fi
+check_build wavefront_check "$build" "${WAVEFRONT_CHECK_OUT:-}"  # sets build, penumbra, out
 builtin=$("$penumbra" scenes | awk '{print $1}')
 listed() { grep -qx -- "$1" <<<"$builtin"; }
 

@@ -15,7 +15,7 @@
 //     accumulate(i)               every pixel of the wave: its samples' L, in sample order
 // A path's shadow result is consumed (apply) before its next hit (shade), the one ordering rule of the step
 // functions, so the image is the depth-first driver's bit for bit wherever the arithmetic is the same (the CPU:
-// tests/test_wavefront.cpp). Queue order is whatever the pushes make it (atomics): each entry names its slot and
+// tests/test_path_schedule.cpp). Queue order is whatever the pushes make it (atomics): each entry names its slot and
 // a path touches only its own slot, so the order changes nothing. max_depth + 1 iterations always suffice: shade
 // at depth max_depth makes neither ray nor query, and a query made at depth d is consumed at iteration d + 1.
 //
