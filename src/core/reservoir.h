@@ -58,7 +58,7 @@ struct Reservoir {
   LightPoint s;
   float w_sum = 0.f;  // sum of the resampling weights seen
   float W = 0.f;      // unbiased contribution weight of s (0: no sample, or one known to be occluded)
-  float M = 0.f;      // candidates it stands for (the confidence weight of the 1/Z combination)
+  float M = 0.f;      // candidates it stands for (its confidence weight when reservoirs are combined)
   float p_hat = 0.f;  // its target at its own pixel
 
   // Streaming RIS: keep x with probability w / (sum of w so far).
