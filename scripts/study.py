@@ -1081,8 +1081,12 @@ def many_check(head, sweep):
     for sel in [s for s in MANY_SELECTIONS if s != "restir-biased"]:
         for st in MANY_STRATEGIES:
             slope = runs[sel]["strategies"][many_technique(st)]["fit_rmse_nolight"]["slope"]
-            if not -0.8 <= slope <= -0.3:
-                failures.append(f"many-spheres {sel} {st}: slope {slope:.3f} outside -0.5 +- 0.3")
+            # A slope near 0 or above is what a method that does not converge gives (the 1/Z ReSTIR's fireflies:
+            # +0.08 at 1080p). At the smoke preset's 24x16 pixels, 2 seeds and 1-32 spp the fitted slope itself
+            # varies by about +-0.25 with the random numbers (g++: -0.39 to -0.56; the same study built by clang
+            # for the sanitizers: -0.23 to -0.56), hence the wide band.
+            if not -0.85 <= slope <= -0.15:
+                failures.append(f"many-spheres {sel} {st}: slope {slope:.3f} outside [-0.85, -0.15]")
     mse = {sel: runs[sel]["strategies"][many_technique("solid-angle")]["points"][-1]["rmse_nolight"] ** 2
            for sel in ("power", "bvh")}
     if not mse["bvh"] < 0.6 * mse["power"]:
