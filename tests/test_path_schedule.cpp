@@ -42,18 +42,6 @@ Image render(const Scene& scene, CpuSchedule schedule, uint32_t first, uint32_t 
                backend->last_render_stats().nonfinite};
 }
 
-// The scene of a case; skips the test where its model data is not on this machine (glossy's bunny, Sponza:
-// ../shared/scenes or PENUMBRA_SCENES), as the other tests of built-in scenes do. Any other error fails.
-Scene load_case(const std::string& name, const std::vector<std::string>& sets, std::string* missing) {
-  try {
-    return load_scene(name, sets);
-  } catch (const SceneError& e) {
-    if (std::string(e.what()).find("not found") == std::string::npos) throw;
-    *missing = e.what();
-    return Scene();
-  }
-}
-
 double total(const std::vector<double>& v) {
   double t = 0;
   for (double x : v) t += x;
@@ -71,16 +59,29 @@ std::string describe(const Case& c) {
   return s;
 }
 
+// A case's scene at 40x24, seed 3. Empty `missing` unless its model data is not on this machine (glossy's bunny,
+// Sponza: ../shared/scenes or PENUMBRA_SCENES): the test then skips, as the other built-in-scene tests do. Any
+// other error fails.
+Scene load_case(const Case& c, std::string* missing) {
+  std::vector<std::string> o = {"render.width=40", "render.height=24", "render.seed=3"};
+  o.insert(o.end(), c.sets.begin(), c.sets.end());
+  try {
+    return load_scene(c.scene, o);
+  } catch (const SceneError& e) {
+    if (std::string(e.what()).find("not found") == std::string::npos) throw;
+    *missing = e.what();
+    return Scene();
+  }
+}
+
 void PrintTo(const Case& c, std::ostream* os) { *os << describe(c); }
 
 class Schedules : public ::testing::TestWithParam<Case> {};
 
 TEST_P(Schedules, BreadthFirstEqualsDepthFirstBitForBit) {
   const Case& c = GetParam();
-  std::vector<std::string> o = {"render.width=40", "render.height=24", "render.seed=3"};
-  o.insert(o.end(), c.sets.begin(), c.sets.end());
   std::string missing;
-  const Scene scene = load_case(c.scene, o, &missing);
+  const Scene scene = load_case(c, &missing);
   if (!missing.empty()) GTEST_SKIP() << missing;
   // 20 samples from sample 5: a tile's pool holds 16 samples of its 256 pixels
   // (CpuBackend::kPoolPaths), so a second, partial pool runs too.
@@ -122,10 +123,8 @@ class Wavefront : public ::testing::TestWithParam<Case> {};
 
 TEST_P(Wavefront, EqualsDepthFirstBitForBit) {
   const Case& c = GetParam();
-  std::vector<std::string> o = {"render.width=40", "render.height=24", "render.seed=3"};
-  o.insert(o.end(), c.sets.begin(), c.sets.end());
   std::string missing;
-  const Scene scene = load_case(c.scene, o, &missing);
+  const Scene scene = load_case(c, &missing);
   if (!missing.empty()) GTEST_SKIP() << missing;
   const Image depth = render(scene, CpuSchedule::DepthFirst, 5, 12, 3);
   ASSERT_GT(total(depth.sum), 0.0) << describe(c) << ": the image is black, which proves nothing";
