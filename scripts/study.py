@@ -233,7 +233,7 @@ def run_on_ray(args, planned):
     for the runs that failed."""
     import study_ray
     runs = [(RayRun(r.name, r.scene, r.sets, run_dir(args, r), r), p) for r, p in planned]
-    return study_ray.execute(args, runs, lambda a, ray_run: converge_options(a, ray_run.run))
+    return study_ray.execute(args, runs, lambda a, ray_run: converge_options(a, ray_run.run), write_atomic)
 
 
 def run_key(r):

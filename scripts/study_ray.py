@@ -148,30 +148,29 @@ def point_key(options, reference_key, technique, commit):
 
 # --- An experiment's files from its points -------------------------------------------------
 
-def _write(path, data):
-    """Writes bytes or text under a temporary name, then renames: never a half-written file."""
-    tmp = f"{path}.{os.getpid()}.tmp"
-    with open(tmp, "wb" if isinstance(data, bytes) else "w") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
-
-
-def write_run(run, plan, points, reference):
+def write_run(run, plan, points, reference, write_atomic):
     """Writes run.out as `penumbra converge` would: the points' files, their
-    measurements in technique order, and one summary.json with every technique.
-    `reference`: cached (before this study), seconds (of its chunks), file."""
+    measurements in technique order, and one summary.json with every technique,
+    each through write_atomic(path, write) (study.py's: never a half-written
+    file). `reference`: cached (before this study), seconds (of its chunks), file."""
+    def write(path, data):
+        mode = "wb" if isinstance(data, bytes) else "w"
+
+        def to(tmp):
+            with open(tmp, mode) as f:
+                f.write(data)
+        write_atomic(path, to)
+
     os.makedirs(run.out, exist_ok=True)
     rows, header = [], None
     for p in points:
         for name, data in p["files"].items():
             if name not in ("measurements.csv", "summary.json"):
-                _write(os.path.join(run.out, name), data)
+                write(os.path.join(run.out, name), data)
         lines = p["files"]["measurements.csv"].decode().splitlines(keepends=True)
         header = header or lines[0]
         rows += lines[1:]
-    _write(os.path.join(run.out, "measurements.csv"), header + "".join(rows))
+    write(os.path.join(run.out, "measurements.csv"), header + "".join(rows))
     summary = json.loads(json.dumps(points[0]["summary"]))
     summary["strategies"] = {}
     for p in points:
@@ -180,12 +179,12 @@ def write_run(run, plan, points, reference):
     summary["reference"].update(reference)
     summary["overrides"] = list(run.sets)  # as the study wrote them (the tasks pass them as values)
     summary["executor"] = "ray"
-    _write(os.path.join(run.out, "summary.json"), json.dumps(summary, indent=2, sort_keys=True) + "\n")
+    write(os.path.join(run.out, "summary.json"), json.dumps(summary, indent=2, sort_keys=True) + "\n")
 
 
 # --- The driver ---------------------------------------------------------------------------
 
-def execute(args, runs, converge_options):
+def execute(args, runs, converge_options, write_atomic):
     """Runs `runs` ([(study.Run, penumbra.converge_plan())]) as Ray tasks and writes
     each run's files into run.out. Returns {run.out: error} for the runs that failed."""
     import numpy as np
@@ -347,5 +346,5 @@ def execute(args, runs, converge_options):
             continue
         points = [st["points"][t["name"]] for t in st["plan"]["techniques"]]
         write_run(run, st["plan"], points, {"cached": st["cached"], "seconds": st["chunk_seconds"],
-                                            "file": st["plan"]["reference"]["path"]})
+                                            "file": st["plan"]["reference"]["path"]}, write_atomic)
     return failed
