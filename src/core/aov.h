@@ -63,21 +63,30 @@ PN_FN bool guide_follows_specular(const Bsdf& b) {
   return b.has_specular && is_black(b.diffuse) && b.coat_weight == 0.f && b.alpha <= kGuideSpecularAlpha;
 }
 
-// The directional albedo estimate above, for the view direction wo.
+// The directional albedo estimate above, for the view direction wo
+// (kSpecular = false: no material of the scene has a specular lobe).
+template <bool kSpecular = true>
 PN_FN Vec3 guide_albedo(const Bsdf& b, Vec3 wo) {
   const float cos_o = pn_max(0.f, dot(b.frame.n, wo));
-  Vec3 a = b.diffuse * bsdf_coat_transmission(b, cos_o);
-  if (b.has_specular) a += bsdf_fresnel(b, cos_o);
+  Vec3 a = b.diffuse * bsdf_coat_transmission<kSpecular>(b, cos_o);
+  if (kSpecular && b.has_specular) a += bsdf_fresnel(b, cos_o);
   return a;
 }
 
 PN_FN Vec3 clamp01(Vec3 v) { return Vec3(clamp(v.x, 0.f, 1.f), clamp(v.y, 0.f, 1.f), clamp(v.z, 0.f, 1.f)); }
 
-// The guides of one ray: follow mirrors to the first non-specular hit.
+// The guides of one ray: follow mirrors to the first non-specular hit. The
+// loop has one trace call site and is kept rolled on the GPU (unrolled, each
+// copy would be a full shading point in the program the driver compiles);
+// without specular lobes (kFeatures) it runs once.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD GuideSample trace_guides(const Tracer& tracer, const SceneView& scene, Ray ray) {
+  constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
   GuideSample g;
   Vec3 tint(1.f);  // product of the mirrors' Fresnel reflectances, in [0, 1]
+#ifdef __CUDA_ARCH__
+#pragma unroll 1
+#endif
   for (int bounce = 0;; ++bounce) {
     HitRecord rec;
     if (!tracer.intersect(ray, kInf, &rec)) {
@@ -93,7 +102,7 @@ PN_HD GuideSample trace_guides(const Tracer& tracer, const SceneView& scene, Ray
       return g;
     }
     const Bsdf bsdf = surface_bsdf<kFeatures>(scene, hit, wo);
-    if (bounce < kGuideMaxSpecular && guide_follows_specular(bsdf)) {
+    if (kSpecular && bounce < kGuideMaxSpecular && guide_follows_specular(bsdf)) {
       const float cos_o = dot(bsdf.frame.n, wo);
       const Vec3 wi = reflect(wo, bsdf.frame.n);
       if (cos_o > 0.f && dot(wi, bsdf.ng) > 0.f) {
@@ -102,7 +111,7 @@ PN_HD GuideSample trace_guides(const Tracer& tracer, const SceneView& scene, Ray
         continue;
       }
     }
-    g.albedo = clamp01(tint * clamp01(guide_albedo(bsdf, wo)));
+    g.albedo = clamp01(tint * clamp01(guide_albedo<kSpecular>(bsdf, wo)));
     g.normal = bsdf.frame.n;
     return g;
   }
@@ -116,6 +125,9 @@ template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD GuideSample render_guides_pixel(const Tracer& tracer, const SceneView& scene, const Camera& camera, int px,
                                       int py, uint32_t samples, uint32_t seed) {
   Vec3 albedo(0.f), normal(0.f);
+#ifdef __CUDA_ARCH__
+#pragma unroll 1
+#endif
   for (uint32_t i = 0; i < samples; ++i) {
     Rng rng(uint32_t(py) * uint32_t(camera.width) + uint32_t(px), i, seed);
     const Vec2 j = rng.uniform2();

@@ -193,17 +193,24 @@ extern "C" __global__ void __raygen__restir_shade() {
   p.sum_sq[pixel] = make_float4(L.x * L.x, L.y * L.y, L.z * L.z, 0.f);
 }
 
-// The denoiser's guides (core/aov.h), one thread per pixel of a W x H launch.
-extern "C" __global__ void __raygen__guides() {
+// The denoiser's guides (core/aov.h), one thread per pixel of a W x H launch;
+// at each feature level, as the strategies' programs (the backend runs the
+// scene's level: a Cornell box's guides have no GGX or texture code).
+template <uint32_t kFeatures>
+__forceinline__ __device__ void guides_pixel() {
   const LaunchParams& p = P();
   int x, y;
   uint32_t pixel;
   if (!launch_pixel(&x, &y, &pixel)) return;
   Tracer tracer;
-  const GuideSample g = render_guides_pixel<kAllFeatures>(tracer, p.scene, p.camera, x, y, p.spp, p.seed);
+  const GuideSample g = render_guides_pixel<kFeatures>(tracer, p.scene, p.camera, x, y, p.spp, p.seed);
   p.guide_albedo[pixel] = make_float4(g.albedo.x, g.albedo.y, g.albedo.z, 0.f);
   p.guide_normal[pixel] = make_float4(g.normal.x, g.normal.y, g.normal.z, 0.f);
 }
+
+extern "C" __global__ void __raygen__guides_basic() { guides_pixel<kFeatureLevels[kFeatureLevel_basic]>(); }
+extern "C" __global__ void __raygen__guides_textured() { guides_pixel<kFeatureLevels[kFeatureLevel_textured]>(); }
+extern "C" __global__ void __raygen__guides_full() { guides_pixel<kFeatureLevels[kFeatureLevel_full]>(); }
 
 extern "C" __global__ void __miss__radiance() { optixSetPayload_1(kMissMarker); }
 

@@ -54,7 +54,7 @@ constexpr uint32_t kNumRaygens = 2 * uint32_t(kNumStrategies);
 PN_FN uint32_t raygen_index(Strategy s, Mis mis) { return 2u * uint32_t(s) + (mis == Mis::None ? 0u : 1u); }
 constexpr uint32_t kRaygenRestirSpatial = kNumRaygens;
 constexpr uint32_t kRaygenRestirShade = kNumRaygens + 1;
-// The denoiser's guides (core/aov.h): one thread per pixel, every feature compiled in.
+// The denoiser's guides (core/aov.h): one thread per pixel, at the scene's feature level.
 constexpr uint32_t kRaygenGuides = kNumRaygens + 2;
 constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 3;
 

@@ -818,9 +818,10 @@ class OptixBackendImpl final : public OptixBackend {
         d.raygen.entryFunctionName = entry.c_str();
         make_group(d, &raygen_[optix::raygen_index(Strategy(i), mis)]);
       }
+    const std::string guides = std::string("__raygen__guides_") + optix::kFeatureLevelNames[feature_level_];
     for (auto [index, entry] : {std::pair<uint32_t, const char*>{optix::kRaygenRestirSpatial, "__raygen__restir_spatial"},
                                 {optix::kRaygenRestirShade, "__raygen__restir_shade"},
-                                {optix::kRaygenGuides, "__raygen__guides"}}) {
+                                {optix::kRaygenGuides, guides.c_str()}}) {
       d = {};
       d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
       d.raygen.module = module_;
