@@ -90,9 +90,11 @@ math(EXPR _pn_optix_micro "${_pn_optix_version} % 100")
 set(PENUMBRA_OPTIX_VERSION_STRING "${_pn_optix_major}.${_pn_optix_minor}.${_pn_optix_micro}")
 
 add_subdirectory(src/backends/optix)
+add_subdirectory(src/backends/cuda)  # the trace stage's cuda traversal and `bench --probe`
+add_subdirectory(src/backends/wavefront)  # the wavefront path tracer's GPU driver (--wavefront)
 
-target_link_libraries(penumbra_lib PUBLIC penumbra_optix)
-target_compile_definitions(penumbra_lib PUBLIC PN_HAVE_OPTIX=1)
+target_link_libraries(penumbra_lib PUBLIC penumbra_optix penumbra_cuda_trace penumbra_wavefront)
+target_compile_definitions(penumbra_lib PUBLIC PN_HAVE_OPTIX=1 PN_HAVE_CUDA_TRACE=1)
 set(PENUMBRA_HAVE_OPTIX ON)
 set(PENUMBRA_OPTIX_SUMMARY
     "; optix (OptiX ${PENUMBRA_OPTIX_VERSION_STRING} headers${_pn_optix_origin}, CUDA ${CMAKE_CUDA_COMPILER_VERSION}, architectures ${CMAKE_CUDA_ARCHITECTURES})")

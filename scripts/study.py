@@ -223,14 +223,17 @@ def plan_on_ray(args, runs):
     return [(r, p) for r, p in kept if r.group not in dropped]
 
 
+# What the Ray executor needs of a run: its files' folder, and the Run for its options.
+RayRun = namedtuple("RayRun", "name scene sets out run")
+
+
 def run_on_ray(args, planned):
     """Runs the planned runs as Ray tasks (scripts/study_ray.py), which leave each
     run's files in its folder as `penumbra converge` would. {run folder: error}
     for the runs that failed."""
     import study_ray
-    experiments = [dict(name=r.name, scene=r.scene, sets=list(r.sets), out=run_dir(args, r),
-                        options=converge_options(args, r), plan=p) for r, p in planned]
-    return study_ray.execute(args, experiments)
+    runs = [(RayRun(r.name, r.scene, r.sets, run_dir(args, r), r), p) for r, p in planned]
+    return study_ray.execute(args, runs, lambda a, ray_run: converge_options(a, ray_run.run))
 
 
 def run_key(r):
@@ -867,17 +870,18 @@ def finish_lab(args, lab, out_dir, head, sweeps):
 # selected by power, is shared through the cache); the lights-count sweep of
 # many-spheres; and `penumbra bench` for cost and memory per method.
 MANY_PRESETS = {
-    "full": dict(headline=dict(width=960, height=540, reference_spp=8192, max_spp=256, seeds=2), lights=10000,
-                 sweep=dict(width=320, height=180, reference_spp=4096, max_spp=64, seeds=2),
-                 counts=[10, 100, 1000, 10000, 100000]),
+    "full": dict(headline=dict(width=960, height=540, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096),
+                 lights=10000, counts=[10, 100, 1000, 10000, 100000],
+                 sweep=dict(width=320, height=180, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096)),
     # The issue's numbers: 10,000 lights at 1080p on the GPU.
-    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=4096, max_spp=128, seeds=2), lights=10000,
-                sweep=dict(width=480, height=270, reference_spp=4096, max_spp=64, seeds=2),
-                counts=[10, 100, 1000, 10000, 100000]),
+    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=4096),
+                lights=10000, counts=[10, 100, 1000, 10000, 100000],
+                sweep=dict(width=480, height=270, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096)),
     # At 24x16 every lamp is smaller than a pixel, and the pixels it covers in part escape the mask of lamp
     # pixels: the smoke runs look at the floor from below the lamps (none in view).
-    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=2), lights=500,
-                  sweep=dict(width=16, height=12, reference_spp=512, max_spp=16, seeds=2), counts=[10, 100, 1000],
+    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=2, reference_chunk=512),
+                  lights=500, counts=[10, 100, 1000],
+                  sweep=dict(width=16, height=12, reference_spp=512, max_spp=16, seeds=2, reference_chunk=256),
                   sets=["camera.eye=[0,0.18,-3]", "camera.target=[0,0,-2.505]", "camera.fov=30"]),
 }
 MANY_SCENES = {"many-spheres": "defaults.lights", "sponza-lanterns": None}
@@ -905,11 +909,13 @@ def many_plan(args, cfg, out_dir):
     head, sweeps = [], {}
     if args.only != "sweeps":
         for scene, count_key in MANY_SCENES.items():
+            if args.scene and scene not in args.scene:
+                continue
             sets = (f"{count_key}={cfg['lights']}",) + tuple(cfg.get("sets", ())) if count_key else ()
             head += [Run(f"{scene}-{sel}", scene, cfg["headline"], sets + tuple(extra), tuple(MANY_STRATEGIES),
                          ("power",), out_dir, None if count_key else scene)
                      for sel, extra in MANY_SELECTIONS.items()]
-    if args.only != "headline":
+    if args.only != "headline" and (not args.scene or "many-spheres" in args.scene):
         for sel in MANY_SWEEP_SELECTIONS:
             sweeps[sel] = [Run(f"count-{n}-{sel}", "many-spheres", cfg["sweep"],
                                (f"defaults.lights={n}",) + tuple(cfg.get("sets", ())) + tuple(MANY_SELECTIONS[sel]),
@@ -1363,7 +1369,7 @@ def main():
                          "denoise: raw and denoised RMSE per strategy, 1-64 spp, on the headline scenes (GPU only; "
                          "docs/results/denoise/README.md); all: the four")
     ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
-    ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES)),
+    ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES) | set(MANY_SCENES)),
                     help="run only this headline scene (repeatable): split a long study over several GPU calls, "
                          "then --report-only over the merged runs")
     ap.add_argument("--check", action="store_true", help="assert slopes and the near-light win (CI smoke test)")

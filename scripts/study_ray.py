@@ -65,8 +65,8 @@ def chunk_task(scene, options, index, fault):
     """A ground-truth chunk: (sum, sum_sq, samples, seconds)."""
     import penumbra
     t0 = time.perf_counter()
-    s, s2, n = penumbra.render_reference_chunk(scene, index, progress=_fault_hook(fault, "chunk"), **options)
-    return s, s2, n, time.perf_counter() - t0
+    c = penumbra.render_reference_chunk(scene, index, progress=_fault_hook(fault, "chunk"), **options)
+    return c.sum, c.sum_sq, c.samples, time.perf_counter() - t0
 
 
 def point_task(scene, options, technique, reference, fault):

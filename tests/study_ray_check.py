@@ -24,7 +24,8 @@ import sys
 
 # Values that are measured times (or derived from them), and the bookkeeping
 # that differs between two runs by design.
-TIMES = {"time_ms", "ms_per_spp", "ms_to_threshold", "efficiency", "efficiency_nolight", "seconds"}
+TIMES = {"time_ms", "ms_per_spp", "ms_to_threshold", "efficiency", "efficiency_nolight", "seconds",
+         "estimated_seconds"}
 BOOKKEEPING = {"device", "executor"}
 REFERENCE_BOOKKEEPING = {"cached", "seconds", "file"}
 

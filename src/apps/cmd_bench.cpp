@@ -24,6 +24,7 @@
 
 #include "apps/commands.h"
 #include "apps/exit_status.h"
+#include "apps/options.h"
 #include "io/output.h"
 #include "render/backend.h"
 #include "render/resources.h"
@@ -31,6 +32,9 @@
 #include "scene/scene.h"
 #if PN_HAVE_OPTIX
 #include "backends/optix/optix_backend.h"
+#endif
+#if PN_HAVE_CUDA_TRACE
+#include "backends/cuda/trace_probe.h"
 #endif
 
 #ifndef PENUMBRA_GIT_COMMIT
@@ -51,8 +55,12 @@ struct BenchArgs {
   int spp_per_launch = 1;
   int max_depth = 8;
   int threads = 0;
+  bool wavefront = false;
+  std::string traversal = "auto";
   bool no_display = false;
   std::string json_path;
+  bool probe = false;              // the trace stage alone (run_probe)
+  uint32_t probe_rays = 1u << 22;  // per launch and ray kind
 };
 
 struct Spread {
@@ -104,6 +112,21 @@ std::string cpu_model() {
   return "unknown";
 }
 
+// The head of bench's JSON files: the tool, when, which build, on what.
+json bench_json(const char* tool, const std::string& device,
+                const std::vector<std::pair<std::string, std::string>>& info) {
+  json j;
+  j["tool"] = tool;
+  j["date"] = utc_now();
+  j["git_commit"] = PENUMBRA_GIT_COMMIT;
+  j["device"] = device;
+  json dev = json::object();
+  for (const auto& kv : info) dev[kv.first] = kv.second;
+  dev["host_cpu"] = cpu_model();
+  j["device_info"] = dev;
+  return j;
+}
+
 std::vector<std::string> split_list(const std::vector<std::string>& items) {
   std::vector<std::string> out;
   for (const std::string& item : items) {
@@ -137,7 +160,151 @@ struct SceneBuild {
 
 double mib(uint64_t bytes) { return double(bytes) / (1024.0 * 1024.0); }
 
+// ---- The trace stage alone (--probe) ----
+//
+// Random incoherent rays inside each scene's bounds (closest hits; shadow rays
+// between two random points), traced by both implementations of the trace
+// stage on the same device buffers: trace-only OptiX launches and the cuda
+// traversal (backends/cuda). Grays/s at the median launch time, and how often
+// the two disagree (exit status kExitDiffer beyond the CPU tests' bounds: ties
+// 1 in 100, other disagreements 1 in 5,000).
+int run_probe(const BenchArgs& a) {
+#if !PN_HAVE_CUDA_TRACE
+  (void)a;
+  throw std::runtime_error("bench --probe needs the GPU build (CUDA and OptiX), which this penumbra was built without");
+#else
+  if (!a.json_path.empty()) check_output_file(a.json_path, "--json");
+  if (a.backend == "cpu") throw std::runtime_error("bench --probe traces on the GPU: --backend cpu does not apply");
+  std::string why;
+  if (!optix_available(&why)) throw std::runtime_error("bench --probe: " + why);
+  std::vector<std::string> scene_names = split_list(a.scenes);
+  const bool all_builtins = scene_names.empty();
+  if (all_builtins)
+    for (const auto& s : builtin_scenes()) scene_names.push_back(s.name);
+  ProbeSettings ps;
+  ps.rays = a.probe_rays;
+  ps.launches = a.launches ? a.launches : 20;
+  ps.warmup = a.warmup >= 0 ? a.warmup : 3;
+  struct Row {
+    std::string scene;
+    size_t triangles = 0, instances = 0, spheres = 0;
+    ProbeResult r;
+  };
+  std::vector<Row> rows;
+  std::string device, choice;
+  std::vector<std::pair<std::string, std::string>> info;
+  for (const std::string& name : scene_names) {
+    Scene scene;
+    try {
+      scene = load_scene(name, a.sets);
+    } catch (const SceneError& e) {
+      if (!all_builtins) throw;
+      std::fprintf(stderr, "bench: skipping %s: %s\n", name.c_str(), e.what());
+      continue;
+    }
+    std::unique_ptr<Backend> backend = make_optix_backend(scene);
+    auto* ob = dynamic_cast<OptixBackend*>(backend.get());
+    if (device.empty()) {
+      device = backend->device_name();
+      info = backend->device_info();
+      const unsigned rt = ob->rtcore_version();
+      choice = rt > 0 ? "optix" : "cuda";
+      std::fprintf(stderr, "traversal auto: %s (OPTIX_DEVICE_PROPERTY_RTCORE_VERSION %u: %s)\n", choice.c_str(), rt,
+                   rt > 0 ? "RT cores" : "no RT cores, OptiX traverses in software");
+      std::fprintf(stderr, "bench --probe: %u closest + %u shadow rays a launch, %d warm-up + %d timed launches\n",
+                   ps.rays, ps.rays, ps.warmup, ps.launches);
+    }
+    Row row;
+    row.scene = name;
+    row.triangles = scene.triangle_count();
+    row.instances = scene.instances.size();
+    row.spheres = scene.spheres.size();
+    row.r = run_trace_probe(scene, *ob, ps);
+    std::fprintf(stderr, "  %-16s optix %.3f / %.3f ms, cuda %.3f / %.3f ms (closest / shadow)\n", name.c_str(),
+                 row.r.optix.closest_ms, row.r.optix.shadow_ms, row.r.cuda.closest_ms, row.r.cuda.shadow_ms);
+    rows.push_back(row);
+  }
+  auto grays = [](uint32_t rays, double ms) { return ms > 0 ? double(rays) / (ms * 1e-3) * 1e-9 : 0.0; };
+  auto both = [](uint32_t rays, const ProbeTimes& t) {
+    const double ms = t.closest_ms + t.shadow_ms;
+    return ms > 0 ? 2.0 * double(rays) / (ms * 1e-3) * 1e-9 : 0.0;
+  };
+  std::printf("\npenumbra bench --probe: %s; traversal auto: %s\n", device.c_str(), choice.c_str());
+  std::printf("Grays/s at the median launch time; closest = closest-hit rays, shadow = any-hit rays, c+s = both\n");
+  std::printf("%-16s %10s %9s | %7s %7s %7s | %7s %7s %7s | %6s %6s | %6s %6s %6s\n", "scene", "triangles", "rays",
+              "optix c", "shadow", "c+s", "cuda c", "shadow", "c+s", "x clos", "x shad", "ties", "other", "shadow");
+  bool differ = false;
+  for (const Row& w : rows) {
+    const ProbeResult& r = w.r;
+    const double oc = grays(r.rays, r.optix.closest_ms), os = grays(r.rays, r.optix.shadow_ms);
+    const double cc = grays(r.rays, r.cuda.closest_ms), cs = grays(r.rays, r.cuda.shadow_ms);
+    std::printf("%-16s %10zu %9u | %7.2f %7.2f %7.2f | %7.2f %7.2f %7.2f | %6.2f %6.2f | %6llu %6llu %6llu\n",
+                w.scene.c_str(), w.triangles, r.rays, oc, os, both(r.rays, r.optix), cc, cs, both(r.rays, r.cuda),
+                oc > 0 ? cc / oc : 0.0, os > 0 ? cs / os : 0.0, (unsigned long long)r.closest_ties,
+                (unsigned long long)(r.closest_other + r.closest_t_off), (unsigned long long)r.shadow_mismatched);
+    differ = differ || r.closest_ties > r.rays / 100 || r.closest_other + r.closest_t_off > r.rays / 5000 ||
+             r.shadow_mismatched > r.rays / 5000;
+  }
+  if (!a.json_path.empty()) {
+    json j = bench_json("penumbra bench --probe", device, info);
+    j["traversal_auto"] = choice;
+    j["settings"] = {{"rays_per_launch", ps.rays}, {"warmup_launches", ps.warmup}, {"timed_launches", ps.launches},
+                     {"seed", ps.seed}, {"sets", a.sets}};
+    j["rays"] = "closest: origin uniform in the scene's bounds, direction uniform on the sphere, tmax infinite; "
+                "shadow: between two points uniform in the bounds, tmax their distance";
+    j["timing"] = "CUDA events around each launch; rounds of optix closest, optix shadow, cuda closest, cuda shadow";
+    json rs = json::array();
+    for (const Row& w : rows) {
+      const ProbeResult& r = w.r;
+      auto side = [&](const ProbeTimes& t) {
+        return json{{"closest_ms", {{"median", t.closest_ms}, {"min", t.closest_min_ms}, {"max", t.closest_max_ms}}},
+                    {"shadow_ms", {{"median", t.shadow_ms}, {"min", t.shadow_min_ms}, {"max", t.shadow_max_ms}}},
+                    {"closest_grays", grays(r.rays, t.closest_ms)},
+                    {"shadow_grays", grays(r.rays, t.shadow_ms)},
+                    {"closest_plus_shadow_grays", both(r.rays, t)}};
+      };
+      rs.push_back({{"scene", w.scene},
+                    {"triangles", w.triangles},
+                    {"instances", w.instances},
+                    {"spheres", w.spheres},
+                    {"rays", r.rays},
+                    {"optix", side(r.optix)},
+                    {"cuda", side(r.cuda)},
+                    {"cuda_over_optix_closest", r.optix.closest_ms > 0 ? r.optix.closest_ms / r.cuda.closest_ms : 0.0},
+                    {"cuda_over_optix_shadow", r.optix.shadow_ms > 0 ? r.optix.shadow_ms / r.cuda.shadow_ms : 0.0},
+                    {"agreement",
+                     {{"hits_optix", r.hits_optix},
+                      {"hits_cuda", r.hits_cuda},
+                      {"closest_ties", r.closest_ties},
+                      {"closest_other", r.closest_other},
+                      {"closest_t_off", r.closest_t_off},
+                      {"blocked_optix", r.blocked_optix},
+                      {"blocked_cuda", r.blocked_cuda},
+                      {"shadow_mismatched", r.shadow_mismatched}}},
+                    {"cuda_bvh",
+                     {{"build_ms", r.bvh.build_ms},
+                      {"upload_ms", r.upload_ms},
+                      {"mib", mib(r.bvh_bytes)},
+                      {"meshes", r.bvh.meshes},
+                      {"top_depth", r.bvh.top_depth},
+                      {"max_mesh_depth", r.bvh.max_mesh_depth},
+                      {"mean_leaf_size", r.bvh.mean_leaf_size}}}});
+    }
+    j["results"] = rs;
+    write_file_atomic(a.json_path, j.dump(2) + "\n");
+    std::fprintf(stderr, "wrote %s\n", a.json_path.c_str());
+  }
+  if (differ) {
+    std::fprintf(stderr, "bench --probe: the two traversals disagree on more rays than ties and edges explain "
+                         "(exit status %d)\n", int(kExitDiffer));
+    return kExitDiffer;
+  }
+  return kExitOk;
+#endif
+}
+
 int run_bench(const BenchArgs& a) {
+  if (a.probe) return run_probe(a);
   if (!a.json_path.empty()) check_output_file(a.json_path, "--json");  // before any work
   std::vector<std::string> scene_names = split_list(a.scenes);
   const bool all_builtins = scene_names.empty();
@@ -192,6 +359,8 @@ int run_bench(const BenchArgs& a) {
     BackendOptions opts;
     opts.threads = a.threads;
     opts.spp_per_launch = a.spp_per_launch;
+    opts.wavefront = a.wavefront;
+    opts.traversal = a.traversal;
     std::string note;
     std::unique_ptr<Backend> backend = make_backend(backend_name.empty() ? a.backend : backend_name, scene, opts, &note);
     if (backend_name.empty()) {
@@ -288,6 +457,18 @@ int run_bench(const BenchArgs& a) {
   const bool gpu = backend_name != "cpu";
   std::printf("\npenumbra bench: %s (%s), %dx%d, %d spp/launch, max depth %d, median of %d launches after %d warm-up\n",
               backend_name.c_str(), device_name.c_str(), W, H, a.spp_per_launch, a.max_depth, launches, warmup);
+  {  // the wavefront's path state (issue 11: under 1 GiB at 1080p)
+    std::string tracer, paths, bytes, pool;
+    for (const auto& kv : info) {
+      if (kv.first == "path_tracer") tracer = kv.second;
+      if (kv.first == "wavefront_paths") paths = kv.second;
+      if (kv.first == "wavefront_path_bytes") bytes = kv.second;
+      if (kv.first == "wavefront_pool") pool = kv.second;
+    }
+    if (tracer == "wavefront")
+      std::printf("wavefront: %s paths in the pool, %s bytes of state and queues a path, %s on the GPU\n",
+                  paths.c_str(), bytes.c_str(), pool.c_str());
+  }
   std::printf("%-16s %-28s %-8s %9s %9s %9s %9s %9s %8s %8s %10s %9s %8s\n", "scene", "technique", "select",
               "ms/launch", "min", "p10", "p90", "max", "trace", "accum", "Msamples/s", "Grays/s", "vs area");
   for (const Result& r : results) {
@@ -338,16 +519,8 @@ int run_bench(const BenchArgs& a) {
 
   // ---- JSON ----
   if (!a.json_path.empty()) {
-    json j;
-    j["tool"] = "penumbra bench";
-    j["date"] = utc_now();
-    j["git_commit"] = PENUMBRA_GIT_COMMIT;
+    json j = bench_json("penumbra bench", device_name, info);
     j["backend"] = backend_name;
-    j["device"] = device_name;
-    json dev = json::object();
-    for (const auto& kv : info) dev[kv.first] = kv.second;
-    dev["host_cpu"] = cpu_model();
-    j["device_info"] = dev;
     j["settings"] = {{"width", W},
                      {"height", H},
                      {"spp_per_launch", a.spp_per_launch},
@@ -446,17 +619,24 @@ Command add_bench_command(CLI::App& app) {
       ->check(CLI::Range(1, 16384));
   sub->add_option("--height", a->height, "Image height (default: 1080 on the GPU, 180 on the CPU)")
       ->check(CLI::Range(1, 16384));
-  sub->add_option("--launches", a->launches, "Timed launches (default: 100 on the GPU, 10 on the CPU)")
+  sub->add_option("--launches", a->launches, "Timed launches (default: 100 on the GPU, 10 on the CPU, 20 with --probe)")
       ->check(CLI::Range(1, 1000000));
-  sub->add_option("--warmup", a->warmup, "Warm-up launches (default: 10 on the GPU, 1 on the CPU)")
+  sub->add_option("--warmup", a->warmup, "Warm-up launches (default: 10 on the GPU, 1 on the CPU, 3 with --probe)")
       ->check(CLI::Range(0, 1000000));
   sub->add_option("--spp-per-launch", a->spp_per_launch, "Samples per pixel per launch")
       ->capture_default_str()
       ->check(CLI::Range(1, 65536));
   sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces")->capture_default_str()->check(CLI::Range(0, 64));
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  add_wavefront_options(sub, &a->wavefront, &a->traversal);
   sub->add_flag("--no-tonemap", a->no_display, "GPU: time accumulation only, without the per-launch tone-map");
   sub->add_option("--json", a->json_path, "Write the results as JSON to this file");
+  sub->add_flag("--probe", a->probe,
+                "The trace stage alone: random incoherent rays in each scene's bounds (closest; shadow), traced by "
+                "OptiX and by the cuda traversal on the same rays, Grays/s and disagreements (GPU build)");
+  sub->add_option("--probe-rays", a->probe_rays, "--probe: rays per launch of each kind")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 1u << 28));
   sub->add_option("--set", a->sets, "Override any scene value, e.g. --set light.radius=0.05")
       ->take_all()
       ->allow_extra_args(false);

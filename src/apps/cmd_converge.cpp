@@ -62,6 +62,7 @@ Command add_converge_command(CLI::App& app) {
       ->check(CLI::Range(1, 1 << 24));
   sub->add_option("--backend", a->backend, "cpu, optix or auto")->capture_default_str()->check(CLI::IsMember({"cpu", "optix", "auto"}));
   add_gpus_option(sub, &a->gpus);
+  add_wavefront_options(sub, &a->wavefront, &a->traversal);
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   sub->add_flag("--yes", a->yes, "Run even when the estimated time on the CPU is more than an hour");
   sub->add_flag("--estimate-only", a->estimate_only,

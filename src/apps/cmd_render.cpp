@@ -27,6 +27,8 @@ struct RenderArgs {
   std::string variance;
   std::string backend = "auto";
   std::string gpus;
+  bool wavefront = false;
+  std::string traversal = "auto";
   IntegratorOptions integrator;
   // kUnset: not given on the command line, keep the scene's value.
   static constexpr long long kUnset = std::numeric_limits<long long>::min();
@@ -139,6 +141,8 @@ int run_render(const RenderArgs& a) {
   BackendOptions opts;
   opts.threads = a.threads;
   opts.gpus = a.gpus;
+  opts.wavefront = a.wavefront;
+  opts.traversal = a.traversal;
   std::string note;
   std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
   if (a.denoise) check_denoise_backend("--denoise", *backend, note);  // one line: the note goes into it
@@ -223,6 +227,7 @@ Command add_render_command(CLI::App& app) {
       ->take_all()
       ->allow_extra_args(false);
   add_gpus_option(sub, &a->gpus);
+  add_wavefront_options(sub, &a->wavefront, &a->traversal);
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   sub->add_option("--exposure", a->exposure, "PNG exposure in stops (x 2^stops before sRGB)")
       ->capture_default_str()

@@ -40,6 +40,19 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
               "neighbours see other lights");
 }
 
+void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal) {
+  *traversal = "auto";
+  sub->add_flag("--wavefront", *wavefront,
+                "GPU, EXPERIMENTAL (not yet run on a GPU: scripts/wavefront_check.sh is its proof): the wavefront "
+                "path tracer (kernels per stage over a pool of paths, one CUDA graph a wave) instead of the "
+                "megakernel; restir with spatial reuse keeps its passes. The cpu backend ignores it");
+  sub->add_option("--traversal", *traversal,
+                  "GPU wavefront's trace stage: optix (trace-only OptiX launches), cuda (penumbra's BVH2 "
+                  "traversal) or auto (optix where the GPU has RT cores, else cuda; one line says which)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "optix", "cuda"}));
+}
+
 void add_gpus_option(CLI::App* sub, std::string* gpus) {
   *gpus = "all";
   sub->add_option("--gpus", *gpus,

@@ -30,6 +30,10 @@ void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::st
 // by default. Its syntax is checked when parsed (render/backend.h: check_gpus).
 void add_gpus_option(CLI::App* sub, std::string* gpus);
 
+// --wavefront and --traversal (render, bench, converge, view): the GPU's path tracer and its trace stage
+// (BackendOptions::wavefront, ::traversal; backends/optix/WAVEFRONT.md). The cpu backend ignores them.
+void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal);
+
 // "none, balance, power: what each does" lines for --help.
 std::string mis_help();
 

@@ -75,26 +75,47 @@ PN_FN float sphere_bounds_radius(float radius) { return radius * 1.0001f; }
 // share it; a ray through an edge or a vertex hits at least one of them. Edge
 // functions that round to exactly 0 are recomputed in double. Embree answers
 // the same way with RTC_SCENE_FLAG_ROBUST (CPU backend); OptiX's built-in
-// triangles are watertight. Used by tests and by code outside a backend.
-PN_FN bool intersect_triangle(const Ray& ray, Vec3 p0, Vec3 p1, Vec3 p2, float tmin, float tmax,
-                              float* t_hit) {
+// triangles are watertight; the cuda traversal (backends/cuda) runs this code.
+//
+// The ray's part (the axis permutation and the shear) is computed once per ray
+// by make_watertight_ray, then tested against many triangles.
+struct WatertightRay {
+  Vec3 o;
+  int kx = 0, ky = 1, kz = 2;
+  float sx = 0.f, sy = 0.f, sz = 0.f;  // sz == 0: a zero direction, which hits nothing
+};
+
+PN_FN WatertightRay make_watertight_ray(const Ray& ray) {
+  WatertightRay r;
+  r.o = ray.o;
   // The axis along which the direction is largest becomes z; x and y follow,
   // swapped when d.z < 0 so that the winding is kept.
   const float ax = std::fabs(ray.d.x), ay = std::fabs(ray.d.y), az = std::fabs(ray.d.z);
-  const int kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
-  int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
-  if (ray.d[kz] < 0.f) {
-    const int k = kx;
-    kx = ky;
-    ky = k;
+  r.kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+  r.kx = r.kz == 2 ? 0 : r.kz + 1;
+  r.ky = r.kx == 2 ? 0 : r.kx + 1;
+  if (ray.d[r.kz] < 0.f) {
+    const int k = r.kx;
+    r.kx = r.ky;
+    r.ky = k;
   }
-  if (ray.d[kz] == 0.f) return false;  // a zero direction
-  const float sx = ray.d[kx] / ray.d[kz], sy = ray.d[ky] / ray.d[kz], sz = 1.f / ray.d[kz];
-  const Vec3 a = p0 - ray.o, b = p1 - ray.o, c = p2 - ray.o;
-  const float a_x = a[kx] - sx * a[kz], a_y = a[ky] - sy * a[kz];
-  const float b_x = b[kx] - sx * b[kz], b_y = b[ky] - sy * b[kz];
-  const float c_x = c[kx] - sx * c[kz], c_y = c[ky] - sy * c[kz];
-  // Edge functions: u of edge (b, c), v of (c, a), w of (a, b).
+  if (ray.d[r.kz] == 0.f) return r;  // a zero direction: sz stays 0
+  r.sx = ray.d[r.kx] / ray.d[r.kz];
+  r.sy = ray.d[r.ky] / ray.d[r.kz];
+  r.sz = 1.f / ray.d[r.kz];
+  return r;
+}
+
+// The hit's t in (tmin, tmax) and, where asked for, its barycentrics b1, b2 (of
+// p1 and p2, as Embree's u, v and OptiX's triangle barycentrics).
+PN_FN bool intersect_triangle(const WatertightRay& r, Vec3 p0, Vec3 p1, Vec3 p2, float tmin, float tmax,
+                              float* t_hit, float* b1 = nullptr, float* b2 = nullptr) {
+  if (r.sz == 0.f) return false;
+  const Vec3 a = p0 - r.o, b = p1 - r.o, c = p2 - r.o;
+  const float a_x = a[r.kx] - r.sx * a[r.kz], a_y = a[r.ky] - r.sy * a[r.kz];
+  const float b_x = b[r.kx] - r.sx * b[r.kz], b_y = b[r.ky] - r.sy * b[r.kz];
+  const float c_x = c[r.kx] - r.sx * c[r.kz], c_y = c[r.ky] - r.sy * c[r.kz];
+  // Edge functions: u of edge (b, c), v of (c, a), w of (a, b): the weights of a, b, c.
   float u = c_x * b_y - c_y * b_x, v = a_x * c_y - a_y * c_x, w = b_x * a_y - b_y * a_x;
   if (u == 0.f || v == 0.f || w == 0.f) {
     u = float(double(c_x) * double(b_y) - double(c_y) * double(b_x));
@@ -104,10 +125,21 @@ PN_FN bool intersect_triangle(const Ray& ray, Vec3 p0, Vec3 p1, Vec3 p2, float t
   if ((u < 0.f || v < 0.f || w < 0.f) && (u > 0.f || v > 0.f || w > 0.f)) return false;
   const float det = u + v + w;
   if (det == 0.f) return false;
-  const float t = (u * sz * a[kz] + v * sz * b[kz] + w * sz * c[kz]) / det;
+  const float t = (u * r.sz * a[r.kz] + v * r.sz * b[r.kz] + w * r.sz * c[r.kz]) / det;
   if (!(t > tmin && t < tmax)) return false;
   *t_hit = t;
+  if (b1) {
+    const float inv = 1.f / det;
+    *b1 = v * inv;
+    *b2 = w * inv;
+  }
   return true;
+}
+
+// One ray, one triangle (tests, code outside a backend).
+PN_FN bool intersect_triangle(const Ray& ray, Vec3 p0, Vec3 p1, Vec3 p2, float tmin, float tmax,
+                              float* t_hit) {
+  return intersect_triangle(make_watertight_ray(ray), p0, p1, p2, tmin, tmax, t_hit);
 }
 
 // Closest-hit reconstruction, shared by both backends so that a hit at the same

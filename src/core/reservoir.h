@@ -58,7 +58,7 @@ struct Reservoir {
   LightPoint s;
   float w_sum = 0.f;  // sum of the resampling weights seen
   float W = 0.f;      // unbiased contribution weight of s (0: no sample, or one known to be occluded)
-  float M = 0.f;      // candidates it stands for (the confidence weight of the 1/Z combination)
+  float M = 0.f;      // candidates it stands for (its confidence weight when reservoirs are combined)
   float p_hat = 0.f;  // its target at its own pixel
 
   // Streaming RIS: keep x with probability w / (sum of w so far).
@@ -131,16 +131,27 @@ PN_FN TargetEval restir_target(const SceneView& scene, const Bsdf& bsdf, Vec3 p,
   return t;
 }
 
-// Whether the light point is visible from shading point p (geometric normal ng
-// on wi's side): the shadow ray of next-event estimation, from the offset
-// origin to y itself, stopping kShadowEpsilon short; unbounded for the environment.
-template <class Tracer>
-PN_HD bool light_visible(const Tracer& tracer, Vec3 p, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
+// The shadow ray of next-event estimation from shading point p (geometric
+// normal ng on wi's side) towards the light point y: from the offset origin to
+// y itself, stopping kShadowEpsilon short; unbounded for the environment.
+struct ShadowRay {
+  Ray ray;
+  float tmax = 0.f;
+};
+
+PN_FN ShadowRay light_shadow_ray(Vec3 p, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
   const Vec3 o = offset_ray_origin(p, ng);
-  if (infinite) return !tracer.occluded(Ray(o, wi), kInf);
+  if (infinite) return ShadowRay{Ray(o, wi), kInf};
   const Vec3 to_light = y - o;
   const float dist = length(to_light);
-  return !tracer.occluded(Ray(o, to_light / dist), dist * (1.f - kShadowEpsilon));
+  return ShadowRay{Ray(o, to_light / dist), dist * (1.f - kShadowEpsilon)};
+}
+
+// Whether the light point is visible from shading point p: its shadow ray is clear.
+template <class Tracer>
+PN_HD bool light_visible(const Tracer& tracer, Vec3 p, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
+  const ShadowRay r = light_shadow_ray(p, ng, wi, y, infinite);
+  return !tracer.occluded(r.ray, r.tmax);
 }
 
 }  // namespace pn

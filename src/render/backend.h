@@ -133,6 +133,11 @@ struct BackendOptions {
   // (MultiBackend). "": GPU 0 alone (the viewer, bench).
   std::string gpus = "";
   int device = 0;  // GPU: the CUDA device of a single-GPU backend (make_optix_backend)
+  // GPU: the wavefront path tracer (backends/wavefront, --wavefront) instead of the megakernel, and its trace
+  // stage (--traversal): "optix" (trace-only OptiX launches), "cuda" (backends/cuda) or "auto" (OptiX where the
+  // GPU has RT cores, OPTIX_DEVICE_PROPERTY_RTCORE_VERSION > 0, else cuda).
+  bool wavefront = false;
+  std::string traversal = "auto";
 };
 
 // --gpus: "all", a count N >= 1 (the first N GPUs) or a comma-separated list of

@@ -189,6 +189,8 @@ std::unique_ptr<Backend> backend_for(const ConvergeOptions& a, const Scene& scen
   BackendOptions opts;
   opts.threads = a.threads;
   opts.gpus = a.gpus;
+  opts.wavefront = a.wavefront;
+  opts.traversal = a.traversal;
   return make_backend(a.backend, scene, opts, note);
 }
 

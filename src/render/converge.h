@@ -36,6 +36,8 @@ struct ConvergeOptions {
   int max_spp = 1024, seeds = 4, reference_spp = 65536, crop_spp = 32, fit_min_spp = 4;
   int reference_chunk = 4096;  // samples per pixel of each chunk of the ground truth
   int threads = 0;
+  bool wavefront = false;          // GPU: --wavefront (BackendOptions::wavefront)
+  std::string traversal = "auto";  // GPU: --traversal
   double threshold = 0.05;
   std::vector<int> crop;  // x, y, w, h; empty: around the light
   bool verbose = true;    // notes and progress bars on stderr

@@ -67,6 +67,7 @@ Command add_view_command(CLI::App& app) {
       ->check(finite_number())
       ->check(CLI::Range(-64.f, 64.f));
   sub->add_option("--threads", a->o.threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  add_wavefront_options(sub, &a->o.wavefront, &a->o.traversal);
   sub->add_option("--split", a->o.split, "Start in split screen: LEFT,RIGHT strategies, e.g. area,solid-angle");
   sub->add_flag("--equal-time", a->o.equal_time, "Split screen at equal time instead of equal samples per pixel");
   sub->add_option("--display", a->o.display,

@@ -274,6 +274,8 @@ void Viewer::load(const std::vector<std::string>& extra) {
   auto scene = std::make_unique<Scene>(load_scene(opt_.scene, overrides));
   BackendOptions bo;
   bo.threads = opt_.threads;
+  bo.wavefront = opt_.wavefront;
+  bo.traversal = opt_.traversal;
   std::string note;
   std::unique_ptr<Backend> backend = make_backend(opt_.backend, *scene, bo, &note);
   if (!backend_) backend_note_ = note;  // printed once the window is open: a failure to open stays one line

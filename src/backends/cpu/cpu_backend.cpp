@@ -4,7 +4,11 @@
 // Embree filter functions that ask core/scene_view.h's alpha_discards(), as the
 // GPU's any-hit program does. Work is split into 16x16 tiles taken by a
 // pool of threads; every pixel sample has its own RNG stream, so the image does
-// not depend on the number of threads or on the order tiles are taken.
+// not depend on the number of threads or on the order tiles are taken. Paths
+// run depth-first (trace_path) or, as an option, breadth-first: a pool of a
+// tile's paths advanced a step at a time in the order of a wavefront GPU's
+// kernels (trace_pool), which gives the same image; or as the GPU wavefront does: its stage functions
+// (backends/wavefront/wavefront.h) in loops over a whole-frame pool (render_wavefront), the same image again.
 #include "backends/cpu/cpu_backend.h"
 
 #include <algorithm>
@@ -22,6 +26,7 @@
 #include "core/geometry.h"
 #include "core/integrator.h"
 #include "core/restir.h"
+#include "backends/wavefront/wavefront.h"
 
 namespace pn {
 namespace {
@@ -115,7 +120,9 @@ class Barrier {
 class CpuBackend final : public Backend {
  public:
   // The scene must outlive the backend: its arrays are traced in place.
-  CpuBackend(const Scene& scene, int threads) : host_(make_host_view(scene)), view_(host_->view) {
+  CpuBackend(const Scene& scene, int threads, CpuSchedule schedule, uint32_t wavefront_paths = 0)
+      : host_(make_host_view(scene)), view_(host_->view), schedule_(schedule),
+        wavefront_paths_(wavefront_paths > 0 ? wavefront_paths : (1u << 20)) {
     filter_.view = &view_;
     filter_.instance_of_geom = &instance_of_geom_;
     threads_ = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -196,7 +203,9 @@ class CpuBackend final : public Backend {
   std::string device_name() const override {
     return std::to_string(threads_) + " CPU thread" + (threads_ > 1 ? "s" : "") + " (Embree " +
            std::to_string(RTC_VERSION_MAJOR) + "." + std::to_string(RTC_VERSION_MINOR) + "." +
-           std::to_string(RTC_VERSION_PATCH) + ")";
+           std::to_string(RTC_VERSION_PATCH) + (schedule_ == CpuSchedule::BreadthFirst ? ", breadth-first"
+            : schedule_ == CpuSchedule::Wavefront  ? ", wavefront"
+                                                   : "") + ")";
   }
 
   // The integrator's view of Embree.
@@ -250,35 +259,48 @@ class CpuBackend final : public Backend {
     if (film.width() != W || film.height() != H) throw std::logic_error("film size differs from the camera's");
     stats_ = RenderStats();
     if (restir_frame_passes(frame.integrator)) return render_restir(frame, film, first_sample, count, progress);
+    if (schedule_ == CpuSchedule::Wavefront) return render_wavefront(frame, film, first_sample, count, progress);
     const uint64_t total = uint64_t(W) * H * count;
     std::atomic<uint64_t> done{0};
     Tracer tracer{this};
     double* sum = film.sum();
     double* sum_sq = film.sum_sq();
+    const bool breadth_first = schedule_ == CpuSchedule::BreadthFirst;
     for_each_tile(W, H, 1, progress, [&](uint32_t, int x0, int y0, int x1, int y1) {
+      const int tw = x1 - x0, th = y1 - y0;
+      std::vector<PixelSum> sums(size_t(tw) * th);
+      if (!breadth_first) {
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x)
+            for (uint32_t i = 0; i < count; ++i)
+              sums[size_t(y - y0) * tw + (x - x0)].add(
+                  render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed));
+      } else {
+        // Pools of at most kPoolPaths paths: every pixel of the tile, a run of its samples.
+        const uint32_t run = std::max<uint32_t>(1, uint32_t(kPoolPaths / sums.size()));
+        std::vector<PathState> pool;
+        for (uint32_t i0 = 0; i0 < count; i0 += run) {
+          const uint32_t n = std::min(run, count - i0);
+          pool.clear();
+          for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x)
+              for (uint32_t i = 0; i < n; ++i)
+                pool.push_back(start_path(frame.camera, x, y, first_sample + i0 + i, frame.seed));
+          trace_pool(tracer, frame.integrator, pool, nullptr);
+          for (size_t k = 0; k < pool.size(); ++k) sums[k / n].add(pool[k].L);  // each pixel's samples in order
+        }
+      }
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
-          double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
-          uint64_t bad = 0;
-          for (uint32_t i = 0; i < count; ++i) {
-            Vec3 L = render_sample(tracer, view_, frame.camera, frame.integrator, x, y, first_sample + i, frame.seed);
-            if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
-              ++bad;
-              continue;
-            }
-            for (int c = 0; c < 3; ++c) {
-              s[c] += L[c];
-              s2[c] += double(L[c]) * L[c];
-            }
-          }
-          size_t o = (size_t(y) * W + x) * 3;
+          const PixelSum& ps = sums[size_t(y - y0) * tw + (x - x0)];
+          const size_t o = (size_t(y) * W + x) * 3;
           for (int c = 0; c < 3; ++c) {
-            sum[o + c] += s[c];
-            sum_sq[o + c] += s2[c];
+            sum[o + c] += ps.s[c];
+            sum_sq[o + c] += ps.s2[c];
           }
-          if (bad > 0) note_nonfinite(x, y, W, bad);
+          if (ps.bad > 0) note_nonfinite(x, y, W, ps.bad);
         }
-      return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0) * count, total);
+      return std::make_pair(done += uint64_t(tw) * th * count, total);
     });
     film.add_samples(count);
   }
@@ -309,6 +331,160 @@ class CpuBackend final : public Backend {
   }
 
  private:
+  // One pixel's samples, summed in sample order (the same order for every schedule).
+  struct PixelSum {
+    double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+    uint64_t bad = 0;
+    void add(const Vec3& L) {
+      if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
+        ++bad;
+        return;
+      }
+      for (int c = 0; c < 3; ++c) {
+        s[c] += L[c];
+        s2[c] += double(L[c]) * L[c];
+      }
+    }
+  };
+
+  static constexpr size_t kPoolPaths = 4096;
+
+  // The breadth-first schedule: the paths of a pool (started by start_path)
+  // advanced to their ends one step at a time, in the order of a wavefront
+  // GPU's kernels:
+  //   1. the closest hit of every active path's ray;
+  //   2. the shadow rays of every query the last step made, traced, then
+  //      consumed (on_shadow_result): after the closest hits of the paths'
+  //      next rays, and from the pool's last path to its first;
+  //   3. every hit or miss consumed (on_hit / on_miss): new queries, next rays.
+  // primary: restir's primary pass, one output per path (else null).
+  void trace_pool(const Tracer& tracer, const IntegratorSettings& s, std::vector<PathState>& pool,
+                  RestirPrimaryOut* primary) const {
+    const size_t n = pool.size();
+    std::vector<HitRecord> hits(n);
+    std::vector<uint8_t> found(n), blocked(n);
+    std::vector<ShadowQuery> queries(n);  // kind None: nothing pending
+    for (bool shaded = true; shaded;) {
+      for (size_t i = 0; i < n; ++i)
+        if (pool[i].active) found[i] = tracer.intersect(pool[i].ray, kInf, &hits[i]);
+      for (size_t i = n; i-- > 0;)
+        if (queries[i].kind != ShadowKind::None) blocked[i] = tracer.occluded(queries[i].ray, queries[i].tmax);
+      for (size_t i = n; i-- > 0;)
+        if (queries[i].kind != ShadowKind::None) {
+          on_shadow_result(pool[i], queries[i], blocked[i] != 0, primary ? &primary[i] : nullptr);
+          queries[i] = ShadowQuery();
+        }
+      shaded = false;
+      for (size_t i = 0; i < n; ++i) {
+        if (!pool[i].active) continue;
+        shaded = true;
+        if (found[i]) queries[i] = on_hit(pool[i], view_, s, hits[i], primary ? &primary[i] : nullptr);
+        else on_miss(pool[i], view_, s);
+      }
+    }
+  }
+
+  // Calls fn(i) for i in [0, n) on the backend's threads (chunks taken from a counter).
+  template <class Fn>
+  void parallel_for(uint32_t n, Fn&& fn) const {
+    constexpr uint32_t kChunk = 64;
+    const int threads = int(std::min<uint32_t>(uint32_t(threads_), (n + kChunk - 1) / kChunk));
+    std::atomic<uint32_t> next{0};
+    auto work = [&] {
+      for (uint32_t i0; (i0 = next.fetch_add(kChunk)) < n;)
+        for (uint32_t i = i0; i < std::min(n, i0 + kChunk); ++i) fn(i);
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (auto& th : pool) th.join();
+  }
+
+  // The Wavefront schedule: the GPU wavefront's stages (backends/wavefront/wavefront.h), each a loop over its
+  // queue on the backend's threads, Embree as the trace stage; the render call's pixels x samples in waves of
+  // wavefront_paths_ slots. Every pixel's samples are summed in sample order (PixelSum), as depth-first.
+  void render_wavefront(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
+                        const ProgressFn& progress) {
+    const int W = frame.camera.width, H = frame.camera.height;
+    const uint32_t pixels = uint32_t(W) * uint32_t(H);
+    const uint64_t items = uint64_t(pixels) * count;
+    const uint32_t capacity = uint32_t(std::min<uint64_t>(wavefront_paths_, std::max<uint64_t>(items, 1)));
+    const IntegratorSettings& s = frame.integrator;
+    // The pool: host arrays with the GPU's layout.
+    std::vector<Vec3> beta(capacity), L(capacity), contribution(capacity);
+    std::vector<Rng> rng(capacity);
+    std::vector<PrevVertex> prev(capacity);
+    std::vector<int32_t> depth(capacity);
+    std::vector<uint32_t> rays(capacity), slots[3] = {std::vector<uint32_t>(capacity),
+                                                       std::vector<uint32_t>(capacity),
+                                                       std::vector<uint32_t>(capacity)};
+    std::vector<TraceRay> queue_rays[3] = {std::vector<TraceRay>(capacity), std::vector<TraceRay>(capacity),
+                                           std::vector<TraceRay>(capacity)};
+    std::vector<HitRecord> hits(capacity);
+    std::vector<uint32_t> bits(trace_bit_words(capacity));
+    uint32_t counts[3] = {0, 0, 0};
+    WaveSpec wave;
+    WavefrontView w;
+    w.wave = &wave;
+    w.pool = PathPool{beta.data(), L.data(), rng.data(), prev.data(), depth.data(), rays.data()};
+    for (int q = 0; q < 2; ++q) w.ray[q] = RayQueue{queue_rays[q].data(), slots[q].data(), &counts[q]};
+    w.shadow = ShadowQueue{queue_rays[2].data(), slots[2].data(), contribution.data(), &counts[2]};
+    w.hits = hits.data();
+    w.blocked_bits = bits.data();
+    w.capacity = capacity;
+
+    // The accumulation's sink: the render call's PixelSums (a pixel's samples in order).
+    std::vector<PixelSum> sums(pixels);
+    struct Sink {
+      PixelSum* sums;
+      PixelSum* ps = nullptr;
+      void begin(uint32_t pixel, bool) { ps = &sums[pixel]; }
+      void add(const Vec3& radiance, uint32_t) { ps->add(radiance); }
+      void end(uint32_t) {}
+    };
+    Tracer tracer{this};
+    for (uint64_t k0 = 0; k0 < items; k0 += capacity) {
+      wave = WaveSpec{k0, uint32_t(std::min<uint64_t>(capacity, items - k0)), first_sample, pixels, frame.seed};
+      parallel_for(capacity, [&](uint32_t i) { generate_camera_ray(i, w, frame.camera); });
+      // max_depth + 1 iterations (wavefront.h); the GPU's graph runs exactly these, so more is an error here.
+      for (int it = 0, cur = 0; counts[cur] > 0 || counts[2] > 0; ++it, cur ^= 1) {
+        if (it > s.max_depth) throw std::logic_error("wavefront: paths left after max_depth + 1 iterations");
+        const RayQueue& in = w.ray[cur];
+        const uint32_t n_rays = counts[cur], n_shadow = counts[2];
+        parallel_for(n_rays, [&](uint32_t j) {
+          const TraceRay& r = in.rays[j];
+          if (!tracer.intersect(Ray(r.o, r.d), r.tmax, &hits[j])) hits[j].instance = kTraceMiss;
+        });
+        parallel_for(trace_bit_words(n_shadow), [&](uint32_t word) {
+          uint32_t b = 0;
+          for (uint32_t j = 32 * word; j < std::min(n_shadow, 32 * word + 32); ++j) {
+            const TraceRay& r = w.shadow.rays[j];
+            if (tracer.occluded(Ray(r.o, r.d), r.tmax)) b |= 1u << (j % 32);
+          }
+          bits[word] = b;
+        });
+        parallel_for(n_shadow, [&](uint32_t j) { apply_shadow_result(j, w); });
+        begin_bounce(w, cur ^ 1);
+        parallel_for(n_rays, [&](uint32_t j) { shade<kAllFeatures>(j, w, cur, view_, s); });
+      }
+      parallel_for(std::min(wave.count, pixels), [&](uint32_t i) {
+        Sink sink{sums.data()};
+        accumulate(i, w, sink);
+      });
+      if (progress) progress(k0 + wave.count, items);
+    }
+    double* sum = film.sum();
+    double* sum_sq = film.sum_sq();
+    for (uint32_t p = 0; p < pixels; ++p) {
+      for (int c = 0; c < 3; ++c) {
+        sum[3 * size_t(p) + c] += sums[p].s[c];
+        sum_sq[3 * size_t(p) + c] += sums[p].s2[c];
+      }
+      if (sums[p].bad > 0) note_nonfinite(int(p % uint32_t(W)), int(p / uint32_t(W)), W, sums[p].bad);
+    }
+    film.add_samples(count);
+  }
+
   // Runs fn(phase, x0, y0, x1, y1) over the W x H frame's 16x16 tiles for
   // phase = 0, 1, ..., phases - 1 in turn, on one pool of threads: every tile
   // of a phase is done before any tile of the next (restir's passes read what
@@ -385,6 +561,19 @@ class CpuBackend final : public Backend {
     for_each_tile(W, H, count * phases_per_sample, progress, [&](uint32_t phase, int x0, int y0, int x1, int y1) {
       const uint32_t sample = first_sample + phase / phases_per_sample, step = phase % phases_per_sample;
       if (step == 0) {  // primary: the paths, their first vertex's reservoir into reservoirs[0]
+        if (schedule_ == CpuSchedule::BreadthFirst) {
+          std::vector<PathState> pool;
+          std::vector<RestirPrimaryOut> primary;
+          for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x) {
+              const size_t p = size_t(y) * W + x;
+              primary.push_back(RestirPrimaryOut{&gbuffer[p], &reservoirs[0][p]});
+              pool.push_back(start_path(frame.camera, x, y, sample, frame.seed, &primary.back()));
+            }
+          trace_pool(tracer, s, pool, primary.data());
+          for (size_t k = 0; k < pool.size(); ++k) primary[k].pixel->L = pool[k].L;
+          return std::make_pair(uint64_t(0), uint64_t(0));
+        }
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
             const size_t p = size_t(y) * W + x;
@@ -423,6 +612,8 @@ class CpuBackend final : public Backend {
 
   std::unique_ptr<HostSceneView> host_;
   SceneView view_;
+  CpuSchedule schedule_ = CpuSchedule::DepthFirst;
+  uint32_t wavefront_paths_ = 1u << 20;
   FilterData filter_;
   std::vector<int> instance_of_geom_;  // top-level geometry ID -> instance index (-1: spheres)
   int threads_ = 1;
@@ -434,10 +625,28 @@ class CpuBackend final : public Backend {
   unsigned sphere_geom_ = RTC_INVALID_GEOMETRY_ID;
 };
 
+class CpuRayQueries final : public RayQueries {
+ public:
+  explicit CpuRayQueries(const Scene& scene) : backend_(scene, 1, CpuSchedule::DepthFirst), tracer_{&backend_} {}
+  bool intersect(const Ray& ray, float tmax, HitRecord* hit) const override {
+    return tracer_.intersect(ray, tmax, hit);
+  }
+  bool occluded(const Ray& ray, float tmax) const override { return tracer_.occluded(ray, tmax); }
+
+ private:
+  CpuBackend backend_;
+  CpuBackend::Tracer tracer_;
+};
+
 }  // namespace
 
-std::unique_ptr<Backend> make_cpu_backend(const Scene& scene, int threads) {
-  return std::make_unique<CpuBackend>(scene, threads);
+std::unique_ptr<Backend> make_cpu_backend(const Scene& scene, int threads, CpuSchedule schedule,
+                                          uint32_t wavefront_paths) {
+  return std::make_unique<CpuBackend>(scene, threads, schedule, wavefront_paths);
+}
+
+std::unique_ptr<RayQueries> make_cpu_ray_queries(const Scene& scene) {
+  return std::make_unique<CpuRayQueries>(scene);
 }
 
 }  // namespace pn

@@ -2,7 +2,9 @@
 // and embedded in the executable.
 //
 // The raygen program runs THE integrator, pn::render_sample from
-// core/integrator.h, with a Tracer whose two queries are optixTrace calls:
+// core/integrator.h (the depth-first driver of its step functions; WAVEFRONT.md
+// proposes kernels over the same steps), with a Tracer whose two queries are
+// optixTrace calls:
 //   intersect(): closest hit. The closest-hit programs only report what the
 //                CPU backend's Embree query reports (a HitRecord: t, instance,
 //                primitive, barycentrics) in payload registers; the integrator
@@ -211,6 +213,27 @@ __forceinline__ __device__ void guides_pixel() {
 extern "C" __global__ void __raygen__guides_basic() { guides_pixel<kFeatureLevels[kFeatureLevel_basic]>(); }
 extern "C" __global__ void __raygen__guides_textured() { guides_pixel<kFeatureLevels[kFeatureLevel_textured]>(); }
 extern "C" __global__ void __raygen__guides_full() { guides_pixel<kFeatureLevels[kFeatureLevel_full]>(); }
+
+// The trace stage's optix implementation: one ray of params.trace_rays per
+// thread, the Tracer's own queries, nothing shaded (bench --probe compares it
+// with the cuda traversal on the same rays).
+extern "C" __global__ void __raygen__trace_closest() {
+  const LaunchParams& p = P();
+  const uint32_t i = optixGetLaunchIndex().x;
+  if (i >= (p.trace_count_device ? *p.trace_count_device : p.trace_count)) return;
+  const TraceRay r = p.trace_rays[i];
+  HitRecord h;
+  if (!Tracer().intersect(Ray(r.o, r.d), r.tmax, &h)) h.instance = kTraceMiss;
+  p.trace_hits[i] = h;
+}
+
+extern "C" __global__ void __raygen__trace_shadow() {
+  const LaunchParams& p = P();
+  const uint32_t i = optixGetLaunchIndex().x;
+  if (i >= (p.trace_count_device ? *p.trace_count_device : p.trace_count)) return;
+  const TraceRay r = p.trace_rays[i];
+  if (Tracer().occluded(Ray(r.o, r.d), r.tmax)) atomicOr(&p.trace_bits[i / 32u], 1u << (i % 32u));
+}
 
 extern "C" __global__ void __miss__radiance() { optixSetPayload_1(kMissMarker); }
 

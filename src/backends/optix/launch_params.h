@@ -13,6 +13,7 @@
 #include "core/camera.h"
 #include "core/integrator.h"
 #include "core/reservoir.h"
+#include "backends/trace_stage.h"
 #include "core/scene_view.h"
 
 namespace pn {
@@ -54,9 +55,12 @@ constexpr uint32_t kNumRaygens = 2 * uint32_t(kNumStrategies);
 PN_FN uint32_t raygen_index(Strategy s, Mis mis) { return 2u * uint32_t(s) + (mis == Mis::None ? 0u : 1u); }
 constexpr uint32_t kRaygenRestirSpatial = kNumRaygens;
 constexpr uint32_t kRaygenRestirShade = kNumRaygens + 1;
+// The trace stage's trace-only launches (backends/trace_stage.h): rays in, hits or bits out.
+constexpr uint32_t kRaygenTraceClosest = kNumRaygens + 2;
+constexpr uint32_t kRaygenTraceShadow = kNumRaygens + 3;
 // The denoiser's guides (core/aov.h): one thread per pixel, at the scene's feature level.
-constexpr uint32_t kRaygenGuides = kNumRaygens + 2;
-constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 3;
+constexpr uint32_t kRaygenGuides = kNumRaygens + 4;
+constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 5;
 
 struct LaunchParams {
   OptixTraversableHandle handle = 0;  // the IAS; 0 for an empty scene (every ray misses)
@@ -84,10 +88,12 @@ struct LaunchParams {
   Reservoir* restir_in = nullptr;
   Reservoir* restir_out = nullptr;
   uint32_t restir_pass = 0;
-  // The guides' launch (kRaygenGuides): each pixel's albedo and normal (xyz,
-  // w = 0) over `spp` camera rays.
-  float4* guide_albedo = nullptr;
-  float4* guide_normal = nullptr;
+// The trace stage's trace-only launches (backends/trace_stage.h): rays in, hits or bits out.
+constexpr uint32_t kRaygenTraceClosest = kNumRaygens + 2;
+constexpr uint32_t kRaygenTraceShadow = kNumRaygens + 3;
+// The denoiser's guides (core/aov.h): one thread per pixel, at the scene's feature level.
+constexpr uint32_t kRaygenGuides = kNumRaygens + 4;
+constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 5;
 };
 
 }  // namespace optix

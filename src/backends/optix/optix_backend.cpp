@@ -30,6 +30,7 @@
 
 #include "backends/optix/kernels.h"
 #include "backends/optix/launch_params.h"
+#include "backends/wavefront/wavefront_gpu.h"
 #include "core/geometry.h"
 #include "core/restir.h"
 #include "core/scene_view.h"
@@ -426,6 +427,7 @@ class OptixBackendImpl final : public OptixBackend {
       build_scene_data();
       build_accels();
       build_sbt();
+      if (options.wavefront) build_wavefront(options.traversal);
       build_stats_.device_used_after = device_memory_used();
     } catch (...) {
       destroy();
@@ -437,7 +439,7 @@ class OptixBackendImpl final : public OptixBackend {
   std::string name() const override { return "optix"; }
   std::string device_name() const override {
     return gpu_name_ + ", driver " + driver_ + ", OptiX " + optix_version_string(OPTIX_VERSION) + ", spheres " +
-           sphere_mode();
+           sphere_mode() + (wavefront_ ? ", wavefront (" + wavefront_->traversal() + " traversal)" : "");
   }
   std::string sphere_mode() const override { return sphere_mode_ == SphereMode::Builtin ? "builtin" : "custom"; }
   int cuda_device() const override { return device_; }
@@ -452,7 +454,13 @@ class OptixBackendImpl final : public OptixBackend {
             {"cuda_driver_api", std::to_string(drv / 1000) + "." + std::to_string((drv % 1000) / 10)},
             {"optix", optix_version_string(OPTIX_VERSION) + " (ABI " + std::to_string(OPTIX_ABI_VERSION) + ")"},
             {"kernel", optix::kFeatureLevelNames[feature_level_]},
-            {"spheres", sphere_mode()}};
+            {"spheres", sphere_mode()},
+            {"rtcore_version", std::to_string(rtcore_version())},
+            {"path_tracer", wavefront_ ? "wavefront" : "megakernel"},
+            {"traversal", wavefront_ ? wavefront_->traversal() : "optix"},
+            {"wavefront_paths", wavefront_ ? std::to_string(wavefront_->capacity()) : "0"},
+            {"wavefront_path_bytes", std::to_string(kWavefrontBytesPerPath)},
+            {"wavefront_pool", wavefront_ ? format_bytes(wavefront_->device_bytes()) : "0"}};
   }
 
   RenderStats last_render_stats() const override { return stats_; }
@@ -560,6 +568,8 @@ class OptixBackendImpl final : public OptixBackend {
       PN_CUDA(cudaEventRecord(s.start, stream_));
       if (restir) {
         launch_restir(p, sbt, unsigned(W), unsigned(H));
+      } else if (wavefront_) {
+        wavefront_->render(frame, base_params_.scene, feature_level_, p.first_sample, spp, p.sum, p.sum_sq, stream_);
       } else {
         PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
         PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, launch_x, launch_y, 1));
@@ -625,6 +635,105 @@ class OptixBackendImpl final : public OptixBackend {
     sbt.raygenRecord = sbt_raygen_.dptr() + CUdeviceptr(optix::kRaygenRestirShade) * sizeof(EmptyRecord);
     PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
     PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, W, H, 1));
+  }
+
+  void trace_closest(const TraceRay* rays, uint32_t count, HitRecord* hits) override {
+    LaunchParams p = base_params_;
+    p.trace_rays = rays;
+    p.trace_hits = hits;
+    p.trace_count = count;
+    launch_trace(p, optix::kRaygenTraceClosest);
+  }
+  void trace_shadow(const TraceRay* rays, uint32_t count, uint32_t* blocked_bits) override {
+    use_device();
+    PN_CUDA(cudaMemsetAsync(blocked_bits, 0, trace_bit_words(count) * sizeof(uint32_t), stream_));
+    LaunchParams p = base_params_;
+    p.trace_rays = rays;
+    p.trace_bits = blocked_bits;
+    p.trace_count = count;
+    launch_trace(p, optix::kRaygenTraceShadow);
+  }
+  void* cuda_stream() const override { return stream_; }
+  SceneView device_scene_view() const override { return base_params_.scene; }
+  unsigned rtcore_version() const override {
+    unsigned v = 0;
+    PN_OPTIX(optixDeviceContextGetProperty(context_, OPTIX_DEVICE_PROPERTY_RTCORE_VERSION, &v, sizeof v));
+    return v;
+  }
+
+  // The trace stage's optix implementation for the wavefront: the same trace-only raygens, their launch
+  // parameters uploaded once per queue (bind), launched at the pool's width with the queue's length read on the
+  // device (LaunchParams::trace_count_device), so that a CUDA graph can record the launches.
+  class OptixTraceStage final : public WavefrontTraceStage {
+   public:
+    explicit OptixTraceStage(OptixBackendImpl& b) : b_(b) {}
+    void bind(const Queues& q) override {
+      capacity_ = q.capacity;
+      bits_ = q.blocked_bits;
+      LaunchParams p[3] = {b_.base_params_, b_.base_params_, b_.base_params_};
+      for (int k = 0; k < 3; ++k) p[k].trace_count = q.capacity;
+      for (int k = 0; k < 2; ++k) {
+        p[k].trace_rays = q.closest_rays[k];
+        p[k].trace_count_device = q.closest_count[k];
+        p[k].trace_hits = q.hits;
+      }
+      p[2].trace_rays = q.shadow_rays;
+      p[2].trace_count_device = q.shadow_count;
+      p[2].trace_bits = q.blocked_bits;
+      params_.alloc(sizeof p, "the wavefront's trace parameters", b_.size_);
+      PN_CUDA(cudaMemcpy(params_.as<void>(), p, sizeof p, cudaMemcpyHostToDevice));
+      for (int k = 0; k < 2; ++k) {
+        sbt_[k] = b_.sbt_;
+        sbt_[k].raygenRecord = b_.sbt_raygen_.dptr() + CUdeviceptr(optix::kRaygenTraceClosest) * sizeof(EmptyRecord);
+      }
+      sbt_[2] = b_.sbt_;
+      sbt_[2].raygenRecord = b_.sbt_raygen_.dptr() + CUdeviceptr(optix::kRaygenTraceShadow) * sizeof(EmptyRecord);
+    }
+    void closest(int queue, void* stream) override { launch(queue, stream); }
+    void shadow(void* stream) override {
+      PN_CUDA(cudaMemsetAsync(bits_, 0, trace_bit_words(capacity_) * sizeof(uint32_t),
+                              static_cast<cudaStream_t>(stream)));
+      launch(2, stream);
+    }
+    std::string name() const override { return "optix"; }
+
+   private:
+    void launch(int k, void* stream) {
+      PN_OPTIX(optixLaunch(b_.pipeline_, static_cast<cudaStream_t>(stream),
+                           params_.dptr() + CUdeviceptr(k) * sizeof(LaunchParams), sizeof(LaunchParams), &sbt_[k],
+                           capacity_, 1, 1));
+    }
+    OptixBackendImpl& b_;
+    DeviceBuffer params_;
+    OptixShaderBindingTable sbt_[3] = {};
+    uint32_t capacity_ = 0;
+    uint32_t* bits_ = nullptr;
+  };
+
+  // --wavefront: the path pool and its trace stage (--traversal; auto: OptiX where the GPU has RT cores).
+  void build_wavefront(const std::string& traversal) {
+    const unsigned rt = rtcore_version();
+    std::string choice = traversal;
+    if (traversal == "auto") choice = rt > 0 ? "optix" : "cuda";
+    else if (traversal != "optix" && traversal != "cuda")
+      throw std::runtime_error("--traversal must be auto, optix or cuda, not '" + traversal + "'");
+    std::fprintf(stderr, "wavefront on GPU %d: traversal %s%s (OPTIX_DEVICE_PROPERTY_RTCORE_VERSION %u: %s)\n",
+                 device_, choice.c_str(), traversal == "auto" ? " (auto)" : "", rt,
+                 rt > 0 ? "RT cores" : "no RT cores");
+    std::unique_ptr<WavefrontTraceStage> stage;
+    if (choice == "optix") stage = std::make_unique<OptixTraceStage>(*this);
+    else stage = make_cuda_trace_stage(scene_, base_params_.scene);
+    wavefront_ = std::make_unique<WavefrontGpu>(std::move(stage), wavefront_default_paths(),
+                                                props_.multiProcessorCount);
+  }
+
+  void launch_trace(const LaunchParams& p, uint32_t raygen) {
+    if (p.trace_count == 0) return;
+    use_device();
+    OptixShaderBindingTable sbt = sbt_;
+    sbt.raygenRecord = sbt_raygen_.dptr() + CUdeviceptr(raygen) * sizeof(EmptyRecord);
+    PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
+    PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, p.trace_count, 1, 1));
   }
 
   void render(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
@@ -821,6 +930,8 @@ class OptixBackendImpl final : public OptixBackend {
     const std::string guides = std::string("__raygen__guides_") + optix::kFeatureLevelNames[feature_level_];
     for (auto [index, entry] : {std::pair<uint32_t, const char*>{optix::kRaygenRestirSpatial, "__raygen__restir_spatial"},
                                 {optix::kRaygenRestirShade, "__raygen__restir_shade"},
+                                {optix::kRaygenTraceClosest, "__raygen__trace_closest"},
+                                {optix::kRaygenTraceShadow, "__raygen__trace_shadow"},
                                 {optix::kRaygenGuides, guides.c_str()}}) {
       d = {};
       d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
@@ -1213,6 +1324,7 @@ class OptixBackendImpl final : public OptixBackend {
   void destroy() {
     cudaSetDevice(device_);  // unchecked, as everything here
     if (stream_) cudaStreamSynchronize(stream_);
+    wavefront_.reset();  // its trace stage holds device memory and launches this pipeline
     if (pipeline_) optixPipelineDestroy(pipeline_);
     for (OptixProgramGroup g : raygen_)
       if (g) optixProgramGroupDestroy(g);
@@ -1282,6 +1394,7 @@ class OptixBackendImpl final : public OptixBackend {
   DeviceBuffer params_, counters_, compacted_size_, sbt_raygen_, sbt_miss_, sbt_hit_;
   DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, acc_bad_, rgba_;
   LaunchParams base_params_;
+  std::unique_ptr<WavefrontGpu> wavefront_;  // --wavefront: renders in place of the megakernel (not restir's passes)
 
   int width_ = 0, height_ = 0;
   uint64_t accumulated_ = 0;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "backends/trace_stage.h"
 #include "render/backend.h"
 
 namespace pn {
@@ -52,6 +53,20 @@ class OptixBackend : public Backend {
   virtual std::string sphere_mode() const = 0;
   // The CUDA device this backend renders on (device_sums() are its memory).
   virtual int cuda_device() const = 0;
+
+  // The trace stage's optix implementation: trace-only launches over `count`
+  // rays in device memory, queued on cuda_stream(). Closest hits: one HitRecord
+  // a ray (instance kTraceMiss for a miss). Shadow rays: blocked bits
+  // (trace_bit_words(count) words, zeroed here first).
+  virtual void trace_closest(const TraceRay* rays, uint32_t count, HitRecord* hits) = 0;
+  virtual void trace_shadow(const TraceRay* rays, uint32_t count, uint32_t* blocked_bits) = 0;
+  virtual void* cuda_stream() const = 0;  // a cudaStream_t
+  // The scene as the device programs see it (device arrays, texture objects),
+  // for other GPU code that resolves hits or tests alpha masks.
+  virtual SceneView device_scene_view() const = 0;
+  // OPTIX_DEVICE_PROPERTY_RTCORE_VERSION: 0 where the GPU has no RT cores
+  // (OptiX then traverses in software).
+  virtual unsigned rtcore_version() const = 0;
 };
 
 // Builds the backend for `scene` on GPU options.device (0 by default): every

@@ -1,0 +1,263 @@
+// Embree's SAH builder (rtcBuildBVH) over triangles and over instances, its
+// trees flattened depth-first into bvh_layout.h's arrays: a node's first child
+// follows it, triangles lie in leaf order.
+#include "backends/cuda/bvh_build.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include <embree3/rtcore.h>
+
+#include "core/geometry.h"
+
+namespace pn {
+namespace {
+
+// The builder's tree, in memory of its thread-local allocator (freed with the RTCBVH).
+struct TmpNode {
+  bool leaf = false;
+  TmpNode* child[2] = {nullptr, nullptr};
+  RTCBounds bounds[2];
+  uint32_t count = 0;       // leaf: primitives
+  const uint32_t* prims = nullptr;  // leaf: their IDs
+};
+
+void* create_node(RTCThreadLocalAllocator alloc, unsigned int children, void*) {
+  if (children != 2) return nullptr;  // maxBranchingFactor is 2: the flattening reports it
+  return new (rtcThreadLocalAlloc(alloc, sizeof(TmpNode), 16)) TmpNode();
+}
+
+void set_children(void* node, void** children, unsigned int count, void*) {
+  for (unsigned i = 0; i < count && i < 2; ++i)
+    static_cast<TmpNode*>(node)->child[i] = static_cast<TmpNode*>(children[i]);
+}
+
+void set_bounds(void* node, const RTCBounds** bounds, unsigned int count, void*) {
+  for (unsigned i = 0; i < count && i < 2; ++i) static_cast<TmpNode*>(node)->bounds[i] = *bounds[i];
+}
+
+void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count, void*) {
+  auto* n = new (rtcThreadLocalAlloc(alloc, sizeof(TmpNode), 16)) TmpNode();
+  auto* ids = static_cast<uint32_t*>(rtcThreadLocalAlloc(alloc, sizeof(uint32_t) * count, 4));
+  for (size_t i = 0; i < count; ++i) ids[i] = prims[i].primID;
+  n->leaf = true;
+  n->count = uint32_t(count);
+  n->prims = ids;
+  return n;
+}
+
+RTCBuildPrimitive build_primitive(Vec3 lo, Vec3 hi, uint32_t id) {
+  RTCBuildPrimitive p;
+  p.lower_x = lo.x, p.lower_y = lo.y, p.lower_z = lo.z;
+  p.upper_x = hi.x, p.upper_y = hi.y, p.upper_z = hi.z;
+  p.geomID = 0;
+  p.primID = id;
+  return p;
+}
+
+void set_box(float* xy, float* z, const RTCBounds& b) {
+  xy[0] = b.lower_x, xy[1] = b.upper_x, xy[2] = b.lower_y, xy[3] = b.upper_y;
+  z[0] = b.lower_z, z[1] = b.upper_z;
+}
+
+class Builder {
+ public:
+  Builder() {
+    device_ = rtcNewDevice(nullptr);
+    if (!device_) throw std::runtime_error("cuda traversal: cannot create an Embree device for the BVH build");
+  }
+  ~Builder() { rtcReleaseDevice(device_); }
+
+  // Builds a tree over `prims` (ids: what leaves hold) and flattens it into
+  // out.nodes; `leaf` appends a leaf's primitives and returns its reference.
+  // Returns the root's reference; *depth: inner nodes on the longest path.
+  template <class Leaf>
+  int32_t build(std::vector<RTCBuildPrimitive>& prims, uint32_t max_leaf, BvhHost& out, uint32_t* depth,
+                const Leaf& leaf) {
+    RTCBVH bvh = rtcNewBVH(device_);
+    RTCBuildArguments a = rtcDefaultBuildArguments();
+    a.byteSize = sizeof(a);
+    a.buildQuality = RTC_BUILD_QUALITY_HIGH;  // binned SAH (no splitPrimitive: no spatial splits)
+    a.maxBranchingFactor = 2;
+    a.maxDepth = 48;
+    a.minLeafSize = 1;
+    a.maxLeafSize = max_leaf;
+    a.traversalCost = 1.0f;
+    a.intersectionCost = 1.0f;
+    a.bvh = bvh;
+    a.primitives = prims.data();
+    a.primitiveCount = prims.size();
+    a.primitiveArrayCapacity = prims.size();
+    a.createNode = create_node;
+    a.setNodeChildren = set_children;
+    a.setNodeBounds = set_bounds;
+    a.createLeaf = create_leaf;
+    auto* root = static_cast<TmpNode*>(rtcBuildBVH(&a));
+    if (!root || rtcGetDeviceError(device_) != RTC_ERROR_NONE) {
+      rtcReleaseBVH(bvh);
+      throw std::runtime_error("cuda traversal: Embree's rtcBuildBVH failed (error " +
+                               std::to_string(rtcGetDeviceError(device_)) + ")");
+    }
+    *depth = 0;
+    const int32_t ref = flatten(root, max_leaf, out, 0, depth, leaf);
+    rtcReleaseBVH(bvh);
+    return ref;
+  }
+
+ private:
+  template <class Leaf>
+  int32_t flatten(const TmpNode* n, uint32_t max_leaf, BvhHost& out, uint32_t d, uint32_t* depth, const Leaf& leaf) {
+    if (!n) throw std::runtime_error("cuda traversal: Embree's builder made a node that is not binary");
+    if (n->leaf) {
+      if (n->count == 0 || n->count > max_leaf) throw std::runtime_error("cuda traversal: a leaf of bad size");
+      return leaf(n->prims, n->count);
+    }
+    *depth = std::max(*depth, d + 1);
+    const int32_t index = int32_t(out.nodes.size());
+    out.nodes.emplace_back();
+    BvhNode& node = out.nodes.back();
+    set_box(node.c0, node.z, n->bounds[0]);
+    set_box(node.c1, node.z + 2, n->bounds[1]);
+    const int32_t c0 = flatten(n->child[0], max_leaf, out, d + 1, depth, leaf);
+    const int32_t c1 = flatten(n->child[1], max_leaf, out, d + 1, depth, leaf);
+    out.nodes[size_t(index)].child[0] = c0;  // `node` may have moved
+    out.nodes[size_t(index)].child[1] = c1;
+    return index;
+  }
+
+  RTCDevice device_ = nullptr;
+};
+
+// Bottom-level leaves: up to 8 triangles (the SAH decides), or PENUMBRA_CUDA_LEAF
+// (1..16: tuning).
+uint32_t mesh_leaf_size() {
+  const char* env = std::getenv("PENUMBRA_CUDA_LEAF");
+  const int v = env ? std::atoi(env) : 8;
+  return (v >= 1 && v <= int(kMaxLeafSize)) ? uint32_t(v) : 8u;
+}
+
+}  // namespace
+
+BvhView BvhHost::view() const {
+  BvhView v;
+  v.nodes = nodes.data();
+  v.triangles = triangles.data();
+  v.instances = instances.data();
+  v.items = items.data();
+  v.spheres = spheres.data();
+  v.root = root;
+  v.num_items = uint32_t(items.size());
+  v.num_nodes = uint32_t(nodes.size());
+  v.any_alpha_masked = any_alpha_masked;
+  return v;
+}
+
+uint64_t BvhHost::bytes() const {
+  return nodes.size() * sizeof(BvhNode) + triangles.size() * sizeof(BvhTriangle) +
+         instances.size() * sizeof(BvhInstance) + items.size() * sizeof(uint32_t) + spheres.size() * sizeof(float);
+}
+
+BvhHost build_bvh(const Scene& scene) {
+  const auto t0 = std::chrono::steady_clock::now();
+  BvhHost out;
+  Builder builder;
+
+  // ---- Bottom level: one BVH per placed, non-empty mesh ----
+  std::vector<bool> placed(scene.meshes.size(), false);
+  for (const Instance& inst : scene.instances) placed.at(inst.mesh) = true;
+  std::vector<int32_t> mesh_root(scene.meshes.size(), 0);
+  std::vector<bool> mesh_built(scene.meshes.size(), false);
+  std::vector<RTCBounds> mesh_bounds(scene.meshes.size());
+  size_t leaves = 0;
+  const uint32_t leaf_size = mesh_leaf_size();
+  for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+    const TriangleMesh& m = scene.meshes[mi];
+    if (!placed[mi] || m.indices.empty()) continue;
+    if (out.triangles.size() + m.indices.size() > kMaxLeafFirst)
+      throw std::runtime_error(scene.source + ": the cuda traversal holds at most " + std::to_string(kMaxLeafFirst) +
+                               " distinct triangles");
+    std::vector<RTCBuildPrimitive> prims(m.indices.size());
+    Vec3 lo_all(kInf), hi_all(-kInf);
+    for (size_t t = 0; t < m.indices.size(); ++t) {
+      const Vec3 a = m.positions[m.indices[t][0]], b = m.positions[m.indices[t][1]], c = m.positions[m.indices[t][2]];
+      const Vec3 lo = vmin(a, vmin(b, c)), hi = vmax(a, vmax(b, c));
+      prims[t] = build_primitive(lo, hi, uint32_t(t));
+      lo_all = vmin(lo_all, lo);
+      hi_all = vmax(hi_all, hi);
+    }
+    mesh_bounds[mi] = {lo_all.x, lo_all.y, lo_all.z, 0.f, hi_all.x, hi_all.y, hi_all.z, 0.f};
+    uint32_t depth = 0;
+    mesh_root[mi] = builder.build(prims, leaf_size, out, &depth, [&](const uint32_t* ids, uint32_t count) {
+      const uint32_t first = uint32_t(out.triangles.size());
+      for (uint32_t i = 0; i < count; ++i) {
+        const auto& idx = m.indices[ids[i]];
+        const Vec3 p0 = m.positions[idx[0]], p1 = m.positions[idx[1]], p2 = m.positions[idx[2]];
+        BvhTriangle tri = {{p0.x, p0.y, p0.z}, ids[i], {p1.x, p1.y, p1.z, 0.f}, {p2.x, p2.y, p2.z, 0.f}};
+        out.triangles.push_back(tri);
+      }
+      ++leaves;
+      return bvh_leaf_ref(first, count);
+    });
+    mesh_built[mi] = true;
+    ++out.stats.meshes;
+    out.stats.max_mesh_depth = std::max(out.stats.max_mesh_depth, depth);
+  }
+  out.stats.mean_leaf_size = leaves ? double(out.triangles.size()) / double(leaves) : 0.0;
+
+  // ---- Top level: instances (their mesh's box in world space) and spheres ----
+  std::vector<RTCBuildPrimitive> prims;
+  for (size_t ii = 0; ii < scene.instances.size(); ++ii) {
+    const Instance& inst = scene.instances[ii];
+    if (!mesh_built[inst.mesh]) continue;
+    const RTCBounds& b = mesh_bounds[inst.mesh];
+    Vec3 lo(kInf), hi(-kInf);
+    for (int k = 0; k < 8; ++k) {
+      const Vec3 p = inst.to_world.point(Vec3(k & 1 ? b.upper_x : b.lower_x, k & 2 ? b.upper_y : b.lower_y,
+                                              k & 4 ? b.upper_z : b.lower_z));
+      lo = vmin(lo, p);
+      hi = vmax(hi, p);
+    }
+    // The corners are rounded once more by the transform: widen by a few ulps of their size.
+    const Vec3 pad = (vmax(lo * -1.f, hi) * 1e-6f) + Vec3(1e-30f);
+    lo = lo - pad;
+    hi = hi + pad;
+    BvhInstance bi;
+    bi.to_object = inst.to_object;
+    bi.root = mesh_root[inst.mesh];
+    bi.instance = uint32_t(ii);
+    bi.alpha_masked = scene.instance_alpha_masked(inst) ? 1u : 0u;
+    out.any_alpha_masked = out.any_alpha_masked || bi.alpha_masked;
+    prims.push_back(build_primitive(lo, hi, uint32_t(out.items.size())));
+    out.items.push_back(uint32_t(out.instances.size()));
+    out.instances.push_back(bi);
+  }
+  for (size_t si = 0; si < scene.spheres.size(); ++si) {
+    const Sphere& s = scene.spheres[si];
+    const float r = sphere_bounds_radius(s.radius);
+    out.spheres.insert(out.spheres.end(), {s.center.x, s.center.y, s.center.z, s.radius});
+    prims.push_back(build_primitive(s.center - Vec3(r), s.center + Vec3(r), uint32_t(out.items.size())));
+    out.items.push_back(kBvhItemSphere | uint32_t(si));
+  }
+  if (out.items.size() > kMaxLeafFirst)
+    throw std::runtime_error(scene.source + ": the cuda traversal holds at most " + std::to_string(kMaxLeafFirst) +
+                             " instances and spheres");
+  if (!prims.empty()) {
+    // One item per leaf: the traversal enters an instance from its leaf.
+    out.root = builder.build(prims, 1, out, &out.stats.top_depth, [&](const uint32_t* ids, uint32_t count) {
+      (void)count;
+      return bvh_leaf_ref(ids[0], 1);
+    });
+  }
+  if (out.stats.top_depth + out.stats.max_mesh_depth > kBvhStackSize)
+    throw std::runtime_error(scene.source + ": the cuda traversal's BVH is " +
+                             std::to_string(out.stats.top_depth + out.stats.max_mesh_depth) +
+                             " nodes deep, more than its stack of " + std::to_string(kBvhStackSize));
+  out.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace pn

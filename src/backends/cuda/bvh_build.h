@@ -1,0 +1,42 @@
+// The cuda traversal's BVH, built on the host: Embree 3's SAH builder
+// (rtcBuildBVH, RTC_BUILD_QUALITY_HIGH) makes a binary tree per mesh and one over
+// the instances and spheres; they are flattened into bvh_layout.h's arrays. The
+// same arrays are traced on the CPU by the tests and uploaded as they are for the
+// GPU (trace_kernels.h).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "backends/cuda/bvh_layout.h"
+#include "scene/scene.h"
+
+namespace pn {
+
+struct BvhStats {
+  double build_ms = 0;           // host clock: every rtcBuildBVH call and the flattening
+  uint32_t meshes = 0;           // meshes with a BVH (non-empty, placed)
+  uint32_t top_depth = 0;        // inner nodes on the longest root-to-leaf path of the top level
+  uint32_t max_mesh_depth = 0;   // ... of the deepest mesh BVH
+  double mean_leaf_size = 0;     // triangles per bottom-level leaf
+};
+
+struct BvhHost {
+  std::vector<BvhNode> nodes;
+  std::vector<BvhTriangle> triangles;
+  std::vector<BvhInstance> instances;
+  std::vector<uint32_t> items;
+  std::vector<float> spheres;
+  int32_t root = 0;
+  bool any_alpha_masked = false;
+  BvhStats stats;
+
+  BvhView view() const;  // over these vectors: valid while they live unchanged
+  uint64_t bytes() const;
+};
+
+// Builds the two levels for `scene`. Throws std::runtime_error with one line
+// (Embree failed, the scene is beyond the layout's limits).
+BvhHost build_bvh(const Scene& scene);
+
+}  // namespace pn

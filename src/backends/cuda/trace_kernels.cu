@@ -1,0 +1,134 @@
+// The cuda traversal's kernels: one ray per thread, bvh_traverse.h as the CPU
+// tests run it. Built without fast math: the triangle test must round as it
+// does on the CPU, where it is checked against Embree.
+#include "backends/cuda/trace_kernels.h"
+
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <cuda_runtime.h>
+
+#include "backends/cuda/bvh_traverse.h"
+
+namespace pn {
+namespace {
+
+// Threads per block: 128 unless PENUMBRA_CUDA_BLOCK (32..256, a multiple of 32) says otherwise (tuning).
+constexpr int kMaxBlock = 256;
+int block_size() {
+  static const int b = [] {
+    const char* env = std::getenv("PENUMBRA_CUDA_BLOCK");
+    const int v = env ? std::atoi(env) : 128;
+    return (v >= 32 && v <= kMaxBlock && v % 32 == 0) ? v : 128;
+  }();
+  return b;
+}
+
+void check(cudaError_t e, const char* what) {
+  if (e != cudaSuccess)
+    throw std::runtime_error(std::string("cuda traversal: ") + what + ": " + cudaGetErrorString(e));
+}
+
+__device__ __forceinline__ Ray load_ray(const TraceRay* rays, uint32_t i, float* tmax) {
+  const float4* p = reinterpret_cast<const float4*>(rays + i);
+  const float4 a = __ldg(p), b = __ldg(p + 1);
+  *tmax = a.w;
+  return Ray(Vec3(a.x, a.y, a.z), Vec3(b.x, b.y, b.z));
+}
+
+__global__ void __launch_bounds__(kMaxBlock) closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
+                                                         uint32_t count, const uint32_t* device_count,
+                                                         HitRecord* hits) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (device_count) count = *device_count;
+  if (i >= count) return;
+  float tmax;
+  const Ray ray = load_ray(rays, i, &tmax);
+  HitRecord h;
+  if (!bvh_intersect(bvh, &scene, ray, tmax, &h)) h.instance = kTraceMiss;
+  hits[i] = h;
+}
+
+// Every thread of a warp reaches the ballot; its lane 0 writes the warp's word.
+__global__ void __launch_bounds__(kMaxBlock) shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
+                                                        uint32_t count, const uint32_t* device_count,
+                                                        uint32_t* bits) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (device_count) count = *device_count;
+  if ((i & ~31u) >= count) return;  // a whole warp past the end: no word of its to write
+  bool blocked = false;
+  if (i < count) {
+    float tmax;
+    const Ray ray = load_ray(rays, i, &tmax);
+    blocked = bvh_occluded(bvh, &scene, ray, tmax);
+  }
+  const uint32_t word = __ballot_sync(0xFFFFFFFFu, blocked);
+  if ((threadIdx.x & 31u) == 0 && i < count) bits[i / 32u] = word;
+}
+
+template <class T>
+T* upload(const std::vector<T>& v, void** slot, uint64_t* bytes) {
+  if (v.empty()) return nullptr;
+  check(cudaMalloc(slot, v.size() * sizeof(T)), "allocating the BVH");
+  check(cudaMemcpy(*slot, v.data(), v.size() * sizeof(T), cudaMemcpyHostToDevice), "uploading the BVH");
+  *bytes += v.size() * sizeof(T);
+  return static_cast<T*>(*slot);
+}
+
+unsigned blocks(uint32_t count) { return unsigned((count + block_size() - 1) / block_size()); }
+
+}  // namespace
+
+CudaTraversal::CudaTraversal(const BvhHost& bvh) : stats_(bvh.stats) {
+  view_ = bvh.view();
+  try {
+    view_.nodes = upload(bvh.nodes, &buffers_[0], &bytes_);
+    view_.triangles = upload(bvh.triangles, &buffers_[1], &bytes_);
+    view_.instances = upload(bvh.instances, &buffers_[2], &bytes_);
+    view_.items = upload(bvh.items, &buffers_[3], &bytes_);
+    view_.spheres = upload(bvh.spheres, &buffers_[4], &bytes_);
+  } catch (...) {
+    for (void* b : buffers_) cudaFree(b);
+    throw;
+  }
+}
+
+CudaTraversal::~CudaTraversal() {
+  for (void* b : buffers_) cudaFree(b);
+}
+
+void CudaTraversal::trace_closest(const TraceRay* rays, uint32_t count, HitRecord* hits, const SceneView& scene,
+                                  void* stream) const {
+  if (count == 0) return;
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  closest_kernel<<<blocks(count), block_size(), 0, s>>>(view_, scene, rays, count, nullptr, hits);
+  check(cudaGetLastError(), "launching the closest-hit kernel");
+}
+
+void CudaTraversal::trace_shadow(const TraceRay* rays, uint32_t count, uint32_t* blocked_bits,
+                                 const SceneView& scene, void* stream) const {
+  if (count == 0) return;
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  shadow_kernel<<<blocks(count), block_size(), 0, s>>>(view_, scene, rays, count, nullptr, blocked_bits);
+  check(cudaGetLastError(), "launching the shadow kernel");
+}
+
+void CudaTraversal::trace_closest(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity,
+                                  HitRecord* hits, const SceneView& scene, void* stream) const {
+  if (capacity == 0) return;
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  closest_kernel<<<blocks(capacity), block_size(), 0, s>>>(view_, scene, rays, capacity, device_count, hits);
+  check(cudaGetLastError(), "launching the closest-hit kernel");
+}
+
+void CudaTraversal::trace_shadow(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity,
+                                 uint32_t* blocked_bits, const SceneView& scene, void* stream) const {
+  if (capacity == 0) return;
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  shadow_kernel<<<blocks(capacity), block_size(), 0, s>>>(view_, scene, rays, capacity, device_count, blocked_bits);
+  check(cudaGetLastError(), "launching the shadow kernel");
+}
+
+}  // namespace pn

@@ -1,0 +1,47 @@
+// The trace stage's cuda implementation on the device: a BvhHost (bvh_build.h)
+// uploaded as it is, and one-ray-per-thread kernels running bvh_traverse.h.
+// This header has no CUDA types, so any C++ code may include it.
+#pragma once
+
+#include <cstdint>
+
+#include "backends/cuda/bvh_build.h"
+#include "backends/trace_stage.h"
+
+namespace pn {
+
+class CudaTraversal {
+ public:
+  // Uploads the BVH to the current device. Throws std::runtime_error with one line.
+  explicit CudaTraversal(const BvhHost& bvh);
+  ~CudaTraversal();
+  CudaTraversal(const CudaTraversal&) = delete;
+  CudaTraversal& operator=(const CudaTraversal&) = delete;
+
+  // Queued on `stream` (a cudaStream_t; null: the default stream). `rays`, `hits`
+  // and `blocked_bits` are device memory; `scene` is the device SceneView
+  // (OptixBackend::device_scene_view()), read only for alpha masks. Closest:
+  // one HitRecord a ray, instance kTraceMiss for a miss. Shadow: bit i of the
+  // trace_bit_words(count) words is 1 when ray i is blocked (every word written).
+  void trace_closest(const TraceRay* rays, uint32_t count, HitRecord* hits, const SceneView& scene,
+                     void* stream) const;
+  void trace_shadow(const TraceRay* rays, uint32_t count, uint32_t* blocked_bits, const SceneView& scene,
+                    void* stream) const;
+  // The same over a queue whose length is in device memory (`device_count`, at most `capacity`): the launch's
+  // size is fixed, so a CUDA graph can hold it (the wavefront, backends/wavefront); threads past the count exit.
+  void trace_closest(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity, HitRecord* hits,
+                     const SceneView& scene, void* stream) const;
+  void trace_shadow(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity, uint32_t* blocked_bits,
+                    const SceneView& scene, void* stream) const;
+
+  uint64_t device_bytes() const { return bytes_; }
+  const BvhStats& stats() const { return stats_; }
+
+ private:
+  BvhView view_;  // device pointers
+  void* buffers_[5] = {};
+  uint64_t bytes_ = 0;
+  BvhStats stats_;
+};
+
+}  // namespace pn

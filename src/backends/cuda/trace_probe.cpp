@@ -1,0 +1,156 @@
+#include "backends/cuda/trace_probe.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <cuda_runtime.h>
+
+#include "backends/cuda/trace_kernels.h"
+#include "backends/probe_rays.h"
+
+namespace pn {
+namespace {
+
+void check(cudaError_t e, const char* what) {
+  if (e != cudaSuccess) throw std::runtime_error(std::string("bench --probe: ") + what + ": " + cudaGetErrorString(e));
+}
+
+// A device allocation freed on scope exit.
+struct DeviceArray {
+  void* p = nullptr;
+  explicit DeviceArray(size_t bytes) { check(cudaMalloc(&p, std::max<size_t>(bytes, 1)), "cudaMalloc"); }
+  ~DeviceArray() { cudaFree(p); }
+  template <class T>
+  T* as() const { return static_cast<T*>(p); }
+};
+
+struct Events {
+  std::vector<cudaEvent_t> e;
+  explicit Events(size_t n) : e(n, nullptr) {
+    for (cudaEvent_t& x : e) check(cudaEventCreate(&x), "cudaEventCreate");
+  }
+  ~Events() {
+    for (cudaEvent_t x : e) cudaEventDestroy(x);
+  }
+};
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
+}
+
+}  // namespace
+
+ProbeResult run_trace_probe(const Scene& scene, OptixBackend& optix, const ProbeSettings& s) {
+  if (s.rays == 0 || s.launches < 1) throw std::runtime_error("bench --probe: needs rays and at least one launch");
+  ProbeResult r;
+  r.rays = s.rays;
+  const BvhHost host = build_bvh(scene);
+  r.bvh = host.stats;
+  r.bvh_bytes = host.bytes();
+  const auto t1 = std::chrono::steady_clock::now();
+  CudaTraversal cuda(host);
+  r.upload_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+
+  const Bounds3 bounds = scene_bounds(scene);
+  if (bounds.empty()) throw std::runtime_error("bench --probe: " + scene.source + " has nothing to hit");
+  const std::vector<TraceRay> closest = probe_closest_rays(bounds, s.rays, s.seed);
+  const std::vector<TraceRay> shadow = probe_shadow_rays(bounds, s.rays, s.seed);
+  const size_t n = s.rays, words = trace_bit_words(s.rays);
+  DeviceArray d_closest(n * sizeof(TraceRay)), d_shadow(n * sizeof(TraceRay));
+  DeviceArray hits_o(n * sizeof(HitRecord)), hits_c(n * sizeof(HitRecord));
+  DeviceArray bits_o(words * sizeof(uint32_t)), bits_c(words * sizeof(uint32_t));
+  check(cudaMemcpy(d_closest.p, closest.data(), n * sizeof(TraceRay), cudaMemcpyHostToDevice), "uploading rays");
+  check(cudaMemcpy(d_shadow.p, shadow.data(), n * sizeof(TraceRay), cudaMemcpyHostToDevice), "uploading rays");
+  // Poison the outputs: every element must be written.
+  check(cudaMemset(hits_o.p, 0xAB, n * sizeof(HitRecord)), "cudaMemset");
+  check(cudaMemset(hits_c.p, 0xAB, n * sizeof(HitRecord)), "cudaMemset");
+  check(cudaMemset(bits_c.p, 0xAB, words * sizeof(uint32_t)), "cudaMemset");
+
+  // Each round: optix closest, optix shadow, cuda closest, cuda shadow, each
+  // between two events on the backend's stream (interleaved, so that clock
+  // changes fall on both alike). The warm-up rounds are not timed.
+  cudaStream_t stream = static_cast<cudaStream_t>(optix.cuda_stream());
+  const SceneView scene_view = optix.device_scene_view();
+  const int rounds = s.warmup + s.launches;
+  Events ev(size_t(rounds) * 8);
+  for (int j = 0; j < rounds; ++j) {
+    cudaEvent_t* e = ev.e.data() + size_t(j) * 8;
+    check(cudaEventRecord(e[0], stream), "cudaEventRecord");
+    optix.trace_closest(d_closest.as<TraceRay>(), s.rays, hits_o.as<HitRecord>());
+    check(cudaEventRecord(e[1], stream), "cudaEventRecord");
+    optix.trace_shadow(d_shadow.as<TraceRay>(), s.rays, bits_o.as<uint32_t>());  // zeroes the bits first
+    check(cudaEventRecord(e[2], stream), "cudaEventRecord");
+    check(cudaEventRecord(e[3], stream), "cudaEventRecord");
+    cuda.trace_closest(d_closest.as<TraceRay>(), s.rays, hits_c.as<HitRecord>(), scene_view, stream);
+    check(cudaEventRecord(e[4], stream), "cudaEventRecord");
+    check(cudaEventRecord(e[5], stream), "cudaEventRecord");
+    cuda.trace_shadow(d_shadow.as<TraceRay>(), s.rays, bits_c.as<uint32_t>(), scene_view, stream);
+    check(cudaEventRecord(e[6], stream), "cudaEventRecord");
+  }
+  check(cudaStreamSynchronize(stream), "tracing");
+  std::vector<double> oc, os, cc, cs;
+  for (int j = s.warmup; j < rounds; ++j) {
+    cudaEvent_t* e = ev.e.data() + size_t(j) * 8;
+    float ms[4];
+    check(cudaEventElapsedTime(&ms[0], e[0], e[1]), "cudaEventElapsedTime");
+    check(cudaEventElapsedTime(&ms[1], e[1], e[2]), "cudaEventElapsedTime");
+    check(cudaEventElapsedTime(&ms[2], e[3], e[4]), "cudaEventElapsedTime");
+    check(cudaEventElapsedTime(&ms[3], e[5], e[6]), "cudaEventElapsedTime");
+    oc.push_back(ms[0]), os.push_back(ms[1]), cc.push_back(ms[2]), cs.push_back(ms[3]);
+  }
+  auto times = [](const std::vector<double>& c, const std::vector<double>& sh) {
+    ProbeTimes t;
+    t.closest_ms = median(c);
+    t.shadow_ms = median(sh);
+    t.closest_min_ms = *std::min_element(c.begin(), c.end());
+    t.closest_max_ms = *std::max_element(c.begin(), c.end());
+    t.shadow_min_ms = *std::min_element(sh.begin(), sh.end());
+    t.shadow_max_ms = *std::max_element(sh.begin(), sh.end());
+    return t;
+  };
+  r.optix = times(oc, os);
+  r.cuda = times(cc, cs);
+
+  // ---- The same answers? ----
+  std::vector<HitRecord> ho(n), hc(n);
+  std::vector<uint32_t> bo(words), bc(words);
+  check(cudaMemcpy(ho.data(), hits_o.p, n * sizeof(HitRecord), cudaMemcpyDeviceToHost), "downloading hits");
+  check(cudaMemcpy(hc.data(), hits_c.p, n * sizeof(HitRecord), cudaMemcpyDeviceToHost), "downloading hits");
+  check(cudaMemcpy(bo.data(), bits_o.p, words * sizeof(uint32_t), cudaMemcpyDeviceToHost), "downloading bits");
+  check(cudaMemcpy(bc.data(), bits_c.p, words * sizeof(uint32_t), cudaMemcpyDeviceToHost), "downloading bits");
+  for (size_t i = 0; i < n; ++i) {
+    const bool a = ho[i].instance != kTraceMiss, b = hc[i].instance != kTraceMiss;
+    r.hits_optix += a;
+    r.hits_cuda += b;
+    if (!a && !b) continue;
+    if (a != b) {
+      ++r.closest_other;
+      continue;
+    }
+    const Vec3 o = closest[i].o;
+    const float scale = 1.f + max_component(vmax(o, -o)) + std::fabs(ho[i].t);
+    if (ho[i].instance == hc[i].instance && ho[i].prim == hc[i].prim)
+      r.closest_t_off += std::fabs(ho[i].t - hc[i].t) > 2e-5f * scale;
+    else if (std::fabs(ho[i].t - hc[i].t) <= 1e-4f * scale)
+      ++r.closest_ties;
+    else
+      ++r.closest_other;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const bool a = (bo[i / 32] >> (i % 32)) & 1u, b = (bc[i / 32] >> (i % 32)) & 1u;
+    r.blocked_optix += a;
+    r.blocked_cuda += b;
+    r.shadow_mismatched += a != b;
+  }
+  // The last word's unused bits: the kernel writes them 0 (a word per warp).
+  if (n % 32 && (bc.back() >> (n % 32)) != 0u) throw std::runtime_error("bench --probe: stray shadow bits");
+  return r;
+}
+
+}  // namespace pn

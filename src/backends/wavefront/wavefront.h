@@ -1,0 +1,232 @@
+// The wavefront path tracer's stages (issue 11, part 2; backends/optix/WAVEFRONT.md): a pool of paths in
+// structure-of-arrays form, queues of rays, and one function per stage, each the work of one thread (one
+// queue entry or one pool slot). They call the integrator's step functions (core/integrator.h: start_path,
+// on_hit / on_miss, on_shadow_result) and nothing else shades: no second integrator.
+//
+// One wave, for pool slots 0..n-1 (items first_item + slot of a render call's pixels x samples):
+//     generate_camera_ray(i)      every slot: start_path -> ray queue 0 (position i)
+//     repeat max_depth + 1 times (iteration `it`, cur = it % 2):
+//       trace closest             ray queue cur -> hits[j]                      (the trace stage)
+//       trace shadow              shadow queue -> blocked bits                  (the trace stage)
+//       apply_shadow_result(j)    on_shadow_result: the query's contribution into its path's L
+//       begin_bounce(cur ^ 1)     the next ray queue and the shadow queue emptied
+//       shade<F>(j, cur)          on_hit / on_miss: a shadow query pushed to the shadow queue, the next ray
+//                                 pushed to ray queue cur ^ 1
+//     accumulate(i)               every pixel of the wave: its samples' L, in sample order
+// A path's shadow result is consumed (apply) before its next hit (shade), the one ordering rule of the step
+// functions, so the image is the depth-first driver's bit for bit wherever the arithmetic is the same (the CPU:
+// tests/test_path_schedule.cpp). Queue order is whatever the pushes make it (atomics): each entry names its slot and
+// a path touches only its own slot, so the order changes nothing. max_depth + 1 iterations always suffice: shade
+// at depth max_depth makes neither ray nor query, and a query made at depth d is consumed at iteration d + 1.
+//
+// Every camera sample has its own RNG stream (start_path), so waves may cut the items anywhere: pools smaller
+// than the frame (several waves a render call) and pools holding several samples of a pixel give the same image.
+//
+// restir with spatial reuse (frame-level passes, core/restir.h) is not a wavefront: its backends keep their
+// passes. restir without spatial reuse resamples inside on_hit and is covered here.
+//
+// Plain pointers and PN_HD code: the CPU backend runs these in loops (CpuSchedule::Wavefront), the GPU in kernels
+// (wavefront_gpu.cu).
+#pragma once
+
+#include <cstdint>
+
+#include "backends/trace_stage.h"
+#include "core/camera.h"
+#include "core/integrator.h"
+
+namespace pn {
+
+// A queue's next position: an atomic counter on both sides (any number of threads push).
+PN_FN uint32_t queue_push(uint32_t* count) {
+#if defined(__CUDA_ARCH__)
+  return atomicAdd(count, 1u);
+#else
+  return __atomic_fetch_add(count, 1u, __ATOMIC_RELAXED);
+#endif
+}
+
+// Which items a wave holds: item k of a render call is sample first_sample + k / pixels of pixel k % pixels
+// (a pixel's samples in order of k); the wave holds items [first_item, first_item + count), slot k - first_item.
+struct WaveSpec {
+  uint64_t first_item = 0;
+  uint32_t count = 0;
+  uint32_t first_sample = 0;
+  uint32_t pixels = 0;
+  uint32_t seed = 0;
+};
+
+// What a path keeps between stages, one array per field (PathState less what the queues hold: the ray lives
+// in its ray queue entry; pixel and sample index follow from the slot).
+struct PathPool {
+  Vec3* beta = nullptr;
+  Vec3* L = nullptr;
+  Rng* rng = nullptr;
+  PrevVertex* prev = nullptr;
+  int32_t* depth = nullptr;
+  uint32_t* rays = nullptr;  // rays traced for the path (camera, continuation and shadow rays): the stats' count
+};
+
+// Rays waiting for their closest hit: the trace stage reads `rays` (TraceRay, backends/trace_stage.h).
+struct RayQueue {
+  TraceRay* rays = nullptr;
+  uint32_t* slot = nullptr;
+  uint32_t* count = nullptr;
+};
+
+// Shadow queries (ShadowKind::Radiance: the only kind a wavefront makes) waiting for their shadow ray.
+struct ShadowQueue {
+  TraceRay* rays = nullptr;
+  uint32_t* slot = nullptr;
+  Vec3* contribution = nullptr;
+  uint32_t* count = nullptr;
+};
+
+// Every array of a wavefront, sized for `capacity` paths.
+struct WavefrontView {
+  const WaveSpec* wave = nullptr;
+  PathPool pool;
+  RayQueue ray[2];          // ping-pong: iteration it reads ray[it % 2] and writes ray[(it + 1) % 2]
+  ShadowQueue shadow;
+  HitRecord* hits = nullptr;        // hits[j]: ray[cur].rays[j]'s closest hit, instance kTraceMiss for a miss
+  uint32_t* blocked_bits = nullptr;  // bit j: shadow.rays[j] is blocked (trace_bit_words(capacity) words)
+  uint32_t capacity = 0;
+};
+
+// Bytes of one path's state and queue entries: what the pool costs per slot.
+constexpr uint64_t kWavefrontBytesPerPath =
+    sizeof(Vec3) * 2 + sizeof(Rng) + sizeof(PrevVertex) + sizeof(int32_t) + sizeof(uint32_t) +  // pool
+    2 * (sizeof(TraceRay) + sizeof(uint32_t)) +                                                 // ray queues
+    sizeof(TraceRay) + sizeof(uint32_t) + sizeof(Vec3) +                                        // shadow queue
+    sizeof(HitRecord);                                                                          // hits
+// The whole pool of `capacity` paths, blocked bits and the three counters included.
+PN_FN uint64_t wavefront_bytes(uint32_t capacity) {
+  return uint64_t(capacity) * kWavefrontBytesPerPath + uint64_t(trace_bit_words(capacity)) * 4u + 3u * 4u;
+}
+
+// --- Loading and storing a path -----------------------------------------------------------------------------
+
+PN_FN PathState load_path(const WavefrontView& w, uint32_t slot, const TraceRay& ray) {
+  const WaveSpec& wave = *w.wave;
+  const uint64_t k = wave.first_item + slot;
+  PathState st;
+  st.ray = Ray(ray.o, ray.d);
+  st.beta = w.pool.beta[slot];
+  st.L = w.pool.L[slot];
+  st.rng = w.pool.rng[slot];
+  st.prev = w.pool.prev[slot];
+  st.pixel = uint32_t(k % wave.pixels);
+  st.sample_index = wave.first_sample + uint32_t(k / wave.pixels);
+  st.depth = w.pool.depth[slot];
+  st.active = 1;
+  return st;
+}
+
+// What a step may have changed (the ray goes to a queue).
+PN_FN void store_path(const WavefrontView& w, uint32_t slot, const PathState& st) {
+  w.pool.beta[slot] = st.beta;
+  w.pool.L[slot] = st.L;
+  w.pool.rng[slot] = st.rng;
+  w.pool.prev[slot] = st.prev;
+  w.pool.depth[slot] = st.depth;
+}
+
+PN_FN TraceRay trace_ray(const Ray& r, float tmax) {
+  TraceRay t;
+  t.o = r.o;
+  t.d = r.d;
+  t.tmax = tmax;
+  return t;
+}
+
+// --- The stages ------------------------------------------------------------------------------------------------
+
+// Slot i (< capacity) takes item wave.first_item + i: its camera ray into ray queue 0 at position i. Thread 0
+// also sets the queues' counts for the first iteration (no other thread of this stage reads them).
+PN_FN void generate_camera_ray(uint32_t i, const WavefrontView& w, const Camera& camera) {
+  const WaveSpec& wave = *w.wave;
+  if (i == 0) {
+    *w.ray[0].count = wave.count;
+    *w.ray[1].count = 0;
+    *w.shadow.count = 0;
+  }
+  if (i >= wave.count) return;
+  const uint64_t k = wave.first_item + i;
+  const uint32_t pixel = uint32_t(k % wave.pixels);
+  const uint32_t width = uint32_t(camera.width);
+  PathState st = start_path(camera, int(pixel % width), int(pixel / width),
+                            wave.first_sample + uint32_t(k / wave.pixels), wave.seed);
+  store_path(w, i, st);
+  w.pool.rays[i] = 1;
+  w.ray[0].rays[i] = trace_ray(st.ray, kInf);
+  w.ray[0].slot[i] = i;
+}
+
+// Shadow query j's answer: on_shadow_result adds its contribution to its path's radiance if the ray was clear.
+PN_FN void apply_shadow_result(uint32_t j, const WavefrontView& w) {
+  const uint32_t slot = w.shadow.slot[j];
+  const bool blocked = ((w.blocked_bits[j / 32u] >> (j % 32u)) & 1u) != 0u;
+  PathState st;
+  st.L = w.pool.L[slot];
+  ShadowQuery q;
+  q.kind = ShadowKind::Radiance;
+  q.contribution = w.shadow.contribution[j];
+  on_shadow_result(st, q, blocked);
+  w.pool.L[slot] = st.L;
+}
+
+// Between apply and shade: the queues shade pushes to start empty (one thread).
+PN_FN void begin_bounce(const WavefrontView& w, int next) {
+  *w.ray[next].count = 0;
+  *w.shadow.count = 0;
+}
+
+// Ray j of ray queue `cur`, its closest hit known: on_hit or on_miss; the light sample's shadow query (if any)
+// to the shadow queue, the next ray (if the path goes on) to ray queue cur ^ 1.
+template <uint32_t kFeatures = kAllFeatures>
+PN_HD void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& scene, const IntegratorSettings& s) {
+  const RayQueue& in = w.ray[cur];
+  const uint32_t slot = in.slot[j];
+  PathState st = load_path(w, slot, in.rays[j]);
+  const HitRecord rec = w.hits[j];
+  ShadowQuery q;
+  if (rec.instance == kTraceMiss) on_miss<kFeatures>(st, scene, s);
+  else q = on_hit<kFeatures>(st, scene, s, rec);
+  uint32_t rays = 0;
+  if (q.kind == ShadowKind::Radiance) {
+    const uint32_t k = queue_push(w.shadow.count);
+    w.shadow.rays[k] = trace_ray(q.ray, q.tmax);
+    w.shadow.slot[k] = slot;
+    w.shadow.contribution[k] = q.contribution;
+    ++rays;
+  }
+  if (st.active) {
+    const RayQueue& out = w.ray[cur ^ 1];
+    const uint32_t k = queue_push(out.count);
+    out.rays[k] = trace_ray(st.ray, kInf);
+    out.slot[k] = slot;
+    ++rays;
+  }
+  store_path(w, slot, st);
+  if (rays) w.pool.rays[slot] += rays;
+}
+
+// Thread i < min(wave.count, pixels) of the accumulation: pixel (first_item + i) % pixels, every sample the wave
+// holds of it in sample order: sink.begin(pixel, first) (first: the pixel's first sample of the render call),
+// sink.add(L, rays) per sample, sink.end(pixel). Each pixel has one thread, so sinks need no atomics.
+template <class Sink>
+PN_HD void accumulate(uint32_t i, const WavefrontView& w, Sink& sink) {
+  const WaveSpec& wave = *w.wave;
+  if (i >= wave.count || i >= wave.pixels) return;
+  const uint64_t end = wave.first_item + wave.count;
+  uint64_t k = wave.first_item + i;
+  const uint32_t pixel = uint32_t(k % wave.pixels);
+  sink.begin(pixel, k < wave.pixels);
+  for (; k < end; k += wave.pixels) {
+    const uint32_t slot = uint32_t(k - wave.first_item);
+    sink.add(w.pool.L[slot], w.pool.rays[slot]);
+  }
+  sink.end(pixel);
+}
+
+}  // namespace pn

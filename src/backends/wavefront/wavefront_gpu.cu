@@ -1,0 +1,301 @@
+// The wavefront's kernels and its driver: one kernel per stage of wavefront.h over a fixed grid (grid-stride
+// loops bounded by the queue lengths the previous kernel wrote), the trace stage between them, one wave's launches
+// recorded in a CUDA graph. Per wave the host writes only the wave's items (a WaveSpec) before replaying it.
+#include "backends/wavefront/wavefront_gpu.h"
+
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
+#include <cuda_runtime.h>
+
+#include "backends/cuda/bvh_build.h"
+#include "backends/cuda/trace_kernels.h"
+#include "backends/optix/launch_params.h"
+
+namespace pn {
+namespace {
+
+constexpr int kBlock = 256;
+
+void check(cudaError_t e, const char* what) {
+  if (e != cudaSuccess)
+    throw std::runtime_error(std::string("wavefront: ") + what + ": " + cudaGetErrorName(e) + " (" +
+                             cudaGetErrorString(e) + ")");
+}
+
+// What every kernel of a render call reads, in constant memory (broadcast loads): the pool and queues, the scene,
+// the camera, the settings, the launch sums. Raw storage, as the OptiX programs' params: core types have
+// user-provided constructors, which a __constant__ variable cannot have.
+struct WaveParams {
+  WavefrontView view;
+  SceneView scene;
+  Camera camera;
+  IntegratorSettings integrator;
+  float4* sum = nullptr;
+  float4* sum_sq = nullptr;
+};
+__constant__ __align__(16) unsigned char g_params[sizeof(WaveParams)];
+
+__device__ __forceinline__ const WaveParams& WP() { return *reinterpret_cast<const WaveParams*>(g_params); }
+
+__device__ __forceinline__ uint32_t stride() { return gridDim.x * blockDim.x; }
+__device__ __forceinline__ uint32_t first_index() { return blockIdx.x * blockDim.x + threadIdx.x; }
+
+__global__ void __launch_bounds__(kBlock) camera_kernel() {
+  const WaveParams& p = WP();
+  const Camera camera = p.camera;
+  for (uint32_t i = first_index(); i < p.view.capacity; i += stride()) generate_camera_ray(i, p.view, camera);
+}
+
+__global__ void __launch_bounds__(kBlock) apply_kernel() {
+  const WavefrontView& w = WP().view;
+  const uint32_t n = *w.shadow.count;
+  for (uint32_t j = first_index(); j < n; j += stride()) apply_shadow_result(j, w);
+}
+
+__global__ void begin_bounce_kernel(int next) { begin_bounce(WP().view, next); }
+
+template <uint32_t kLevel>
+__global__ void __launch_bounds__(kBlock) shade_kernel(int cur) {
+  const WaveParams& p = WP();
+  const IntegratorSettings s = p.integrator;
+  const uint32_t n = *p.view.ray[cur].count;
+  for (uint32_t j = first_index(); j < n; j += stride())
+    shade<optix::kFeatureLevels[kLevel]>(j, p.view, cur, p.scene, s);
+}
+
+// The accumulation's sink: a pixel's launch sums, as render_pixels (device_programs.cu) writes them.
+struct LaunchSink {
+  float4 s, q;
+  __device__ void begin(uint32_t pixel, bool first) {
+    if (first) {
+      s = make_float4(0.f, 0.f, 0.f, 0.f);
+      q = s;
+    } else {
+      s = WP().sum[pixel];
+      q = WP().sum_sq[pixel];
+    }
+  }
+  __device__ void add(const Vec3& L, uint32_t rays) {
+    s.w += float(rays);
+    if (!is_finite(L)) {  // as render_pixels: skipped, counted
+      q.w += 1.f;
+      return;
+    }
+    s.x += L.x;
+    s.y += L.y;
+    s.z += L.z;
+    q.x += L.x * L.x;
+    q.y += L.y * L.y;
+    q.z += L.z * L.z;
+  }
+  __device__ void end(uint32_t pixel) {
+    WP().sum[pixel] = s;
+    WP().sum_sq[pixel] = q;
+  }
+};
+
+__global__ void __launch_bounds__(kBlock) accumulate_kernel() {
+  const WavefrontView& w = WP().view;
+  const uint32_t n = min(w.wave->count, w.wave->pixels);
+  for (uint32_t i = first_index(); i < n; i += stride()) {
+    LaunchSink sink;
+    accumulate(i, w, sink);
+  }
+}
+
+// The cuda traversal as the trace stage.
+class CudaTraceStage final : public WavefrontTraceStage {
+ public:
+  CudaTraceStage(const Scene& scene, const SceneView& device_scene)
+      : traversal_(build_bvh(scene)), scene_(device_scene) {}
+  void bind(const Queues& q) override { q_ = q; }
+  void closest(int queue, void* stream) override {
+    traversal_.trace_closest(q_.closest_rays[queue], q_.closest_count[queue], q_.capacity, q_.hits, scene_, stream);
+  }
+  void shadow(void* stream) override {
+    traversal_.trace_shadow(q_.shadow_rays, q_.shadow_count, q_.capacity, q_.blocked_bits, scene_, stream);
+  }
+  std::string name() const override { return "cuda"; }
+
+ private:
+  CudaTraversal traversal_;
+  SceneView scene_;
+  Queues q_;
+};
+
+// Carves the pool's arrays out of one allocation, each 256-byte aligned.
+class Carver {
+ public:
+  explicit Carver(char* base) : base_(base) {}
+  template <class T>
+  T* take(uint64_t n) {
+    T* p = base_ ? reinterpret_cast<T*>(base_ + used_) : nullptr;
+    used_ += (n * sizeof(T) + 255u) & ~uint64_t(255u);
+    return p;
+  }
+  uint64_t used() const { return used_; }
+
+ private:
+  char* base_;
+  uint64_t used_ = 0;
+};
+
+WavefrontView carve(char* base, uint32_t capacity, uint64_t* bytes) {
+  Carver c(base);
+  WavefrontView w;
+  w.capacity = capacity;
+  w.pool.beta = c.take<Vec3>(capacity);
+  w.pool.L = c.take<Vec3>(capacity);
+  w.pool.rng = c.take<Rng>(capacity);
+  w.pool.prev = c.take<PrevVertex>(capacity);
+  w.pool.depth = c.take<int32_t>(capacity);
+  w.pool.rays = c.take<uint32_t>(capacity);
+  uint32_t* counts = c.take<uint32_t>(3);
+  for (int q = 0; q < 2; ++q) {
+    w.ray[q].rays = c.take<TraceRay>(capacity);
+    w.ray[q].slot = c.take<uint32_t>(capacity);
+    w.ray[q].count = counts ? counts + q : nullptr;
+  }
+  w.shadow.rays = c.take<TraceRay>(capacity);
+  w.shadow.slot = c.take<uint32_t>(capacity);
+  w.shadow.contribution = c.take<Vec3>(capacity);
+  w.shadow.count = counts ? counts + 2 : nullptr;
+  w.hits = c.take<HitRecord>(capacity);
+  w.blocked_bits = c.take<uint32_t>(trace_bit_words(capacity));
+  *bytes = c.used();
+  return w;
+}
+
+}  // namespace
+
+uint32_t wavefront_default_paths() {
+  if (const char* env = std::getenv("PENUMBRA_WAVEFRONT_PATHS")) {
+    const long long v = std::atoll(env);
+    if (v >= 1024 && v <= (1ll << 26)) return uint32_t(v);
+    throw std::runtime_error("PENUMBRA_WAVEFRONT_PATHS must be a number of paths from 1024 to 67108864, not '" +
+                             std::string(env) + "'");
+  }
+  return 1u << 21;
+}
+
+std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, const SceneView& device_scene) {
+  return std::make_unique<CudaTraceStage>(scene, device_scene);
+}
+
+WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t capacity, int num_sms)
+    : trace_(std::move(trace)), capacity_(capacity), num_sms_(num_sms > 0 ? num_sms : 1) {
+  carve(nullptr, capacity_, &bytes_);
+  size_t free_bytes = 0, total = 0;
+  check(cudaMemGetInfo(&free_bytes, &total), "cudaMemGetInfo");
+  if (bytes_ + sizeof(WaveSpec) > free_bytes)
+    throw std::runtime_error("wavefront: the pool of " + std::to_string(capacity_) + " paths needs " +
+                             std::to_string(bytes_ >> 20) + " MiB, the GPU has " + std::to_string(free_bytes >> 20) +
+                             " MiB free (PENUMBRA_WAVEFRONT_PATHS sets a smaller pool)");
+  check(cudaMalloc(&memory_, bytes_), "allocating the path pool");
+  if (cudaMalloc(&wave_, sizeof(WaveSpec)) != cudaSuccess) {
+    cudaFree(memory_);
+    throw std::runtime_error("wavefront: out of GPU memory for the wave's parameters");
+  }
+  view_ = carve(static_cast<char*>(memory_), capacity_, &bytes_);
+  view_.wave = static_cast<const WaveSpec*>(wave_);
+  bytes_ += sizeof(WaveSpec);
+  WavefrontTraceStage::Queues q;
+  for (int k = 0; k < 2; ++k) {
+    q.closest_rays[k] = view_.ray[k].rays;
+    q.closest_count[k] = view_.ray[k].count;
+  }
+  q.hits = view_.hits;
+  q.shadow_rays = view_.shadow.rays;
+  q.shadow_count = view_.shadow.count;
+  q.blocked_bits = view_.blocked_bits;
+  q.capacity = capacity_;
+  trace_->bind(q);
+}
+
+WavefrontGpu::~WavefrontGpu() {
+  if (exec_) cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(exec_));
+  if (graph_) cudaGraphDestroy(static_cast<cudaGraph_t>(graph_));
+  cudaFree(wave_);
+  cudaFree(memory_);
+}
+
+// One wave's launches: the camera, max_depth + 1 iterations (wavefront.h says why that many suffice), the
+// accumulation. Every kernel's grid is fixed (a few blocks per SM, grid-stride loops) and reads its queue's length
+// on the device, so the graph holds for every wave of every render call with this depth and level.
+void WavefrontGpu::record(uint32_t feature_level, int max_depth, void* stream_ptr) {
+  cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
+  if (exec_) cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(exec_));
+  if (graph_) cudaGraphDestroy(static_cast<cudaGraph_t>(graph_));
+  exec_ = graph_ = nullptr;
+  const unsigned grid = unsigned(num_sms_) * 8u;
+  check(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal), "cudaStreamBeginCapture");
+  cudaGraph_t graph = nullptr;
+  try {
+    camera_kernel<<<grid, kBlock, 0, stream>>>();
+    check(cudaGetLastError(), "the camera kernel");
+    for (int it = 0, cur = 0; it <= max_depth; ++it, cur ^= 1) {
+      trace_->closest(cur, stream);
+      trace_->shadow(stream);
+      apply_kernel<<<grid, kBlock, 0, stream>>>();
+      begin_bounce_kernel<<<1, 1, 0, stream>>>(cur ^ 1);
+      switch (feature_level) {
+        case optix::kFeatureLevel_basic:
+          shade_kernel<optix::kFeatureLevel_basic><<<grid, kBlock, 0, stream>>>(cur);
+          break;
+        case optix::kFeatureLevel_textured:
+          shade_kernel<optix::kFeatureLevel_textured><<<grid, kBlock, 0, stream>>>(cur);
+          break;
+        default:
+          shade_kernel<optix::kFeatureLevel_full><<<grid, kBlock, 0, stream>>>(cur);
+          break;
+      }
+      check(cudaGetLastError(), "the shading kernels");
+    }
+    accumulate_kernel<<<grid, kBlock, 0, stream>>>();
+    check(cudaGetLastError(), "the accumulation kernel");
+  } catch (...) {
+    cudaStreamEndCapture(stream, &graph);
+    if (graph) cudaGraphDestroy(graph);
+    throw;
+  }
+  check(cudaStreamEndCapture(stream, &graph), "recording the wave's graph");
+  graph_ = graph;
+  cudaGraphExec_t exec = nullptr;
+  check(cudaGraphInstantiate(&exec, graph, 0), "instantiating the wave's graph");
+  exec_ = exec;
+  graph_level_ = feature_level;
+  graph_depth_ = max_depth;
+}
+
+void WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
+                          uint32_t first_sample, uint32_t spp, void* sum, void* sum_sq, void* stream_ptr) {
+  cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
+  const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
+  const uint64_t items = uint64_t(pixels) * spp;
+  if (items == 0) return;
+  if (!exec_ || graph_level_ != feature_level || graph_depth_ != frame.integrator.max_depth)
+    record(feature_level, frame.integrator.max_depth, stream);
+  WaveParams p;
+  p.view = view_;
+  p.scene = device_scene;
+  p.camera = frame.camera;
+  p.integrator = frame.integrator;
+  p.sum = static_cast<float4*>(sum);
+  p.sum_sq = static_cast<float4*>(sum_sq);
+  // Pageable copies: staged before they return, ordered on the stream before the graph's kernels read them.
+  check(cudaMemcpyToSymbolAsync(g_params, &p, sizeof p, 0, cudaMemcpyHostToDevice, stream), "the parameters");
+  for (uint64_t k0 = 0; k0 < items; k0 += capacity_) {
+    WaveSpec wave;
+    wave.first_item = k0;
+    wave.count = uint32_t(items - k0 < capacity_ ? items - k0 : capacity_);
+    wave.first_sample = first_sample;
+    wave.pixels = pixels;
+    wave.seed = frame.seed;
+    check(cudaMemcpyAsync(wave_, &wave, sizeof wave, cudaMemcpyHostToDevice, stream), "the wave's items");
+    check(cudaGraphLaunch(static_cast<cudaGraphExec_t>(exec_), stream), "cudaGraphLaunch");
+  }
+}
+
+}  // namespace pn

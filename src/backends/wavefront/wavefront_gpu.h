@@ -1,0 +1,85 @@
+// The wavefront path tracer on the GPU (issue 11, part 2; backends/optix/WAVEFRONT.md): the stage functions of
+// wavefront.h in CUDA kernels over a device pool, the trace stage through either implementation (trace-only
+// OptiX launches or the cuda traversal), the launches of one wave recorded once in a CUDA graph and replayed.
+// The OptiX backend runs it in place of its megakernel with --wavefront (BackendOptions::wavefront).
+//
+// This header has no CUDA types, so any C++ code may include it.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "backends/trace_stage.h"
+#include "backends/wavefront/wavefront.h"
+#include "render/backend.h"
+
+namespace pn {
+
+// The trace stage as a wavefront calls it: launches over queues that stay where they are for the pool's life,
+// their lengths in device memory, so that a CUDA graph can record them (nothing synchronous in closest / shadow).
+class WavefrontTraceStage {
+ public:
+  virtual ~WavefrontTraceStage() = default;
+  struct Queues {
+    const TraceRay* closest_rays[2] = {nullptr, nullptr};
+    const uint32_t* closest_count[2] = {nullptr, nullptr};
+    HitRecord* hits = nullptr;
+    const TraceRay* shadow_rays = nullptr;
+    const uint32_t* shadow_count = nullptr;
+    uint32_t* blocked_bits = nullptr;
+    uint32_t capacity = 0;
+  };
+  // The queues every later call traces; before the first of them (may upload launch parameters).
+  virtual void bind(const Queues& q) = 0;
+  virtual void closest(int queue, void* stream) = 0;  // ray queue `queue` -> hits; stream: a cudaStream_t
+  virtual void shadow(void* stream) = 0;              // the shadow queue -> blocked bits
+  virtual std::string name() const = 0;               // "optix" or "cuda"
+};
+
+// The cuda traversal (backends/cuda) as a wavefront's trace stage: builds and uploads the scene's BVH.
+// device_scene: the device SceneView (alpha masks). Throws std::runtime_error with one line.
+std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, const SceneView& device_scene);
+
+// A wavefront of `capacity` paths on the current CUDA device. Throws std::runtime_error with one line (out of
+// memory: the pool's size and PENUMBRA_WAVEFRONT_PATHS named).
+class WavefrontGpu {
+ public:
+  WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t capacity, int num_sms);
+  ~WavefrontGpu();
+  WavefrontGpu(const WavefrontGpu&) = delete;
+  WavefrontGpu& operator=(const WavefrontGpu&) = delete;
+
+  // Samples [first_sample, first_sample + spp) of every pixel, as waves of at most capacity() paths, into the
+  // launch sums the megakernel's raygen writes (float4 a pixel; sum: the samples' sum in xyz and the rays traced
+  // in w, sum_sq: their squares in xyz and the non-finite samples in w), queued on `stream` (a cudaStream_t).
+  // feature_level indexes optix::kFeatureLevels (the smallest level covering the scene, as the megakernel's).
+  // The graph of one wave is recorded at the first call and again where max_depth or the level changes.
+  void render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t first_sample,
+              uint32_t spp, void* sum, void* sum_sq, void* stream);
+
+  uint32_t capacity() const { return capacity_; }
+  uint64_t device_bytes() const { return bytes_; }
+  std::string traversal() const { return trace_->name(); }
+
+ private:
+  void record(uint32_t feature_level, int max_depth, void* stream);
+
+  std::unique_ptr<WavefrontTraceStage> trace_;
+  uint32_t capacity_ = 0;
+  int num_sms_ = 1;
+  uint64_t bytes_ = 0;
+  void* memory_ = nullptr;     // every array of the pool, one allocation
+  void* wave_ = nullptr;       // the WaveSpec in device memory
+  void* graph_ = nullptr;      // cudaGraph_t
+  void* exec_ = nullptr;       // cudaGraphExec_t
+  uint32_t graph_level_ = 0;
+  int graph_depth_ = -1;
+  WavefrontView view_;         // device pointers into memory_
+};
+
+// The default pool: one slot per pixel of a 1920 x 2048 frame (2^21: 1080p in one wave at one sample per pixel);
+// PENUMBRA_WAVEFRONT_PATHS overrides it.
+uint32_t wavefront_default_paths();
+
+}  // namespace pn

@@ -1,0 +1,337 @@
+// The cuda traversal (backends/cuda/bvh_traverse.h) is host-device code: here it
+// runs on the CPU against the CPU backend's own Embree answers, on every built-in
+// scene (those whose data is missing are skipped) and on an alpha-textured scene,
+// with random rays inside the scene's bounds and camera rays. Also the BVH's
+// invariants: every triangle of a mesh in exactly one leaf, every box inside its
+// parent's, every item of the top level once.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "backends/cpu/cpu_backend.h"
+#include "backends/cuda/bvh_build.h"
+#include "backends/cuda/bvh_traverse.h"
+#include "backends/probe_rays.h"
+#include "scene/scene.h"
+
+namespace pn {
+namespace {
+
+using json = nlohmann::json;
+
+constexpr uint32_t kRandomRays = 20000;
+constexpr uint32_t kSeed = 11;
+
+// How two traversals' answers to the same rays compare.
+struct Agreement {
+  uint64_t rays = 0, hits = 0;
+  uint64_t ties = 0;   // different primitives at the same distance (shared edges, coplanar faces)
+  uint64_t other = 0;  // hit against miss, or different primitives at different distances
+  uint64_t t_off = 0;  // the same primitive at distances further apart than kRelT
+  uint64_t bary_off = 0;  // the same triangle with barycentrics further apart than kBary
+  std::string first;   // the first disagreement, for the failure message
+};
+
+// Tolerances relative to the size of the coordinates (1 + |o| + t): both tests
+// round at that scale, and a grazing ray turns such rounding into larger
+// differences of t. Barycentrics are compared by the points they give.
+constexpr float kRelT = 2e-5f;  // the same primitive: difference of t, distance of the points
+constexpr float kTieT = 1e-4f;  // different primitives: a tie within this difference
+
+void note(Agreement* a, const std::string& what) {
+  if (a->first.empty()) a->first = what;
+}
+
+std::string describe(const Ray& r) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "ray o=(%.7g, %.7g, %.7g) d=(%.7g, %.7g, %.7g)", r.o.x, r.o.y, r.o.z, r.d.x, r.d.y,
+                r.d.z);
+  return buf;
+}
+
+void compare_closest(const RayQueries& ref, const BvhView& bvh, const SceneView& view, const Ray& ray, float tmax,
+                     Agreement* a) {
+  ++a->rays;
+  HitRecord e, c;
+  const bool he = ref.intersect(ray, tmax, &e), hc = bvh_intersect(bvh, &view, ray, tmax, &c);
+  if (!he && !hc) return;
+  if (he != hc) {
+    ++a->other;
+    note(a, describe(ray) + (he ? ": Embree hits, cuda misses" : ": cuda hits, Embree misses"));
+    return;
+  }
+  ++a->hits;
+  const float scale = 1.f + max_component(vmax(ray.o, -ray.o)) + std::fabs(e.t);
+  if (e.instance == c.instance && e.prim == c.prim) {
+    if (std::fabs(e.t - c.t) > kRelT * scale) {
+      ++a->t_off;
+      note(a, describe(ray) + ": t " + std::to_string(e.t) + " (Embree) vs " + std::to_string(c.t));
+    }
+    if (e.instance != kSphereInstance) {  // barycentrics: the points they give, in world space
+      const InstanceView& inst = view.instances[e.instance];
+      const uint32_t* idx = inst.mesh.indices + 3 * e.prim;
+      const Vec3 p0 = inst.mesh.positions[idx[0]];
+      const Vec3 dp =
+          (inst.mesh.positions[idx[1]] - p0) * (e.b1 - c.b1) + (inst.mesh.positions[idx[2]] - p0) * (e.b2 - c.b2);
+      if (length(inst.to_world.vector(dp)) > kRelT * scale) {
+        ++a->bary_off;
+        note(a, describe(ray) + ": barycentrics (" + std::to_string(e.b1) + ", " + std::to_string(e.b2) +
+                    ") (Embree) vs (" + std::to_string(c.b1) + ", " + std::to_string(c.b2) + ")");
+      }
+    }
+  } else if (std::fabs(e.t - c.t) <= kTieT * scale) {
+    ++a->ties;
+  } else {
+    ++a->other;
+    note(a, describe(ray) + ": Embree hits " + std::to_string(e.instance) + "/" + std::to_string(e.prim) + " at " +
+                std::to_string(e.t) + ", cuda " + std::to_string(c.instance) + "/" + std::to_string(c.prim) + " at " +
+                std::to_string(c.t));
+  }
+}
+
+// Runs every check on one scene.
+void check_scene(const Scene& scene) {
+  const std::unique_ptr<RayQueries> ref = make_cpu_ray_queries(scene);
+  const std::unique_ptr<HostSceneView> host = make_host_view(scene);
+  const BvhHost built = build_bvh(scene);
+  const BvhView bvh = built.view();
+  const Bounds3 bounds = scene_bounds(scene);
+  ASSERT_FALSE(bounds.empty()) << scene.source;
+
+  // Closest hits: random rays inside the bounds, then camera rays.
+  Agreement closest;
+  for (const TraceRay& r : probe_closest_rays(bounds, kRandomRays, kSeed))
+    compare_closest(*ref, bvh, host->view, Ray(r.o, r.d), r.tmax, &closest);
+  const Camera cam = scene.make_camera();
+  constexpr int kCamW = 96, kCamH = 54;
+  for (int y = 0; y < kCamH; ++y)
+    for (int x = 0; x < kCamW; ++x) {
+      const Ray r = cam.generate_ray((x + 0.5f) * cam.width / kCamW, (y + 0.5f) * cam.height / kCamH);
+      compare_closest(*ref, bvh, host->view, r, kInf, &closest);
+    }
+  // The rays must test something: most of them hit.
+  EXPECT_GT(closest.hits, closest.rays / 4) << scene.source;
+  EXPECT_EQ(closest.t_off, 0u) << scene.source << ": " << closest.first;
+  EXPECT_EQ(closest.bary_off, 0u) << scene.source << ": " << closest.first;
+  // Edges and vertices: at most 1 ray in 5,000 disagrees on whether or what it hits.
+  EXPECT_LE(closest.other, closest.rays / 5000) << scene.source << ": " << closest.first;
+  // Ties: rays from inside a box through its face on the floor, coplanar faces.
+  EXPECT_LE(closest.ties, closest.rays / 100) << scene.source;
+
+  // Shadow rays between random points of the bounds.
+  uint64_t blocked = 0, mismatched = 0;
+  std::string first;
+  const std::vector<TraceRay> shadow = probe_shadow_rays(bounds, kRandomRays, kSeed);
+  for (const TraceRay& r : shadow) {
+    const Ray ray(r.o, r.d);
+    const bool e = ref->occluded(ray, r.tmax), c = bvh_occluded(bvh, &host->view, ray, r.tmax);
+    blocked += e;
+    if (e != c) {
+      ++mismatched;
+      if (first.empty())
+        first = describe(ray) + " tmax " + std::to_string(r.tmax) + (e ? ": Embree blocked" : ": cuda blocked");
+    }
+  }
+  EXPECT_LE(mismatched, shadow.size() / 5000) << scene.source << ": " << first;
+  EXPECT_GT(blocked, 0u) << scene.source;
+  std::printf("[ agreement ] %s: closest %llu rays, %llu hits, %llu ties, %llu other; shadow %zu rays, %llu blocked, "
+              "%llu mismatched\n",
+              scene.source.c_str(), (unsigned long long)closest.rays, (unsigned long long)closest.hits,
+              (unsigned long long)closest.ties, (unsigned long long)closest.other, shadow.size(),
+              (unsigned long long)blocked, (unsigned long long)mismatched);
+}
+
+// --- Invariants --------------------------------------------------------------------
+
+struct Box {
+  Vec3 lo, hi;
+  bool contains(const Box& b) const {
+    return lo.x <= b.lo.x && lo.y <= b.lo.y && lo.z <= b.lo.z && b.hi.x <= hi.x && b.hi.y <= hi.y && b.hi.z <= hi.z;
+  }
+  bool contains(Vec3 p) const { return contains(Box{p, p}); }
+};
+
+Box child_box(const BvhNode& n, int c) {
+  const float* xy = c == 0 ? n.c0 : n.c1;
+  return Box{Vec3(xy[0], xy[2], n.z[2 * c]), Vec3(xy[1], xy[3], n.z[2 * c + 1])};
+}
+
+// Walks a subtree whose box is `box`, calling leaf(ref) on its leaves.
+template <class Leaf>
+void walk(const BvhHost& b, int32_t ref, const Box& box, const Leaf& leaf, int* bad_boxes) {
+  if (ref < 0) return leaf(ref, box);
+  ASSERT_LT(size_t(ref), b.nodes.size());
+  const BvhNode& n = b.nodes[size_t(ref)];
+  for (int c = 0; c < 2; ++c) {
+    const Box cb = child_box(n, c);
+    if (!box.contains(cb)) ++*bad_boxes;
+    walk(b, n.child[c], cb, leaf, bad_boxes);
+  }
+}
+
+void check_invariants(const Scene& scene) {
+  const BvhHost b = build_bvh(scene);
+  const Box everything{Vec3(-kInf), Vec3(kInf)};
+  int bad_boxes = 0;
+  // Bottom level: each mesh once, through its first instance.
+  std::vector<bool> seen_mesh(scene.meshes.size(), false);
+  size_t triangles = 0;
+  for (const BvhInstance& bi : b.instances) {
+    const uint32_t mi = scene.instances.at(bi.instance).mesh;
+    if (seen_mesh[mi]) continue;
+    seen_mesh[mi] = true;
+    const TriangleMesh& m = scene.meshes[mi];
+    std::vector<int> count(m.indices.size(), 0);
+    walk(b, bi.root, everything, [&](int32_t ref, const Box& box) {
+      for (uint32_t i = 0; i < bvh_leaf_count(ref); ++i) {
+        const BvhTriangle& t = b.triangles.at(bvh_leaf_first(ref) + i);
+        ASSERT_LT(t.prim, m.indices.size());
+        ++count[t.prim];
+        ++triangles;
+        for (int k = 0; k < 3; ++k)
+          if (!box.contains(m.positions[m.indices[t.prim][k]])) ++bad_boxes;
+      }
+    }, &bad_boxes);
+    for (size_t t = 0; t < count.size(); ++t)
+      ASSERT_EQ(count[t], 1) << scene.source << ": mesh " << mi << " triangle " << t;
+  }
+  EXPECT_EQ(triangles, b.triangles.size()) << scene.source << ": triangles outside every mesh's tree";
+  // Top level: every item once; an instance's box holds its mesh's vertices placed.
+  std::vector<int> items(b.items.size(), 0);
+  walk(b, b.root, everything, [&](int32_t ref, const Box& box) {
+    ASSERT_EQ(bvh_leaf_count(ref), 1u);
+    const uint32_t item = bvh_leaf_first(ref);
+    ASSERT_LT(item, items.size());
+    ++items[item];
+    if (b.items[item] & kBvhItemSphere) {
+      const Sphere& s = scene.spheres.at(b.items[item] & ~kBvhItemSphere);
+      if (!box.contains(Box{s.center - Vec3(s.radius), s.center + Vec3(s.radius)})) ++bad_boxes;
+    } else {
+      const Instance& inst = scene.instances.at(b.instances.at(b.items[item]).instance);
+      for (const Vec3& p : scene.meshes[inst.mesh].positions)
+        if (!box.contains(inst.to_world.point(p))) ++bad_boxes;
+    }
+  }, &bad_boxes);
+  for (size_t i = 0; i < items.size(); ++i) ASSERT_EQ(items[i], 1) << scene.source << ": item " << i;
+  EXPECT_EQ(bad_boxes, 0) << scene.source << ": boxes not inside their parent's";
+  size_t spheres = 0, instances = 0;
+  for (uint32_t it : b.items) (it & kBvhItemSphere) ? ++spheres : ++instances;
+  EXPECT_EQ(spheres, scene.spheres.size());
+  EXPECT_EQ(instances, b.instances.size());
+}
+
+// --- The scenes --------------------------------------------------------------------
+
+std::vector<std::string> builtin_names() {
+  std::vector<std::string> names;
+  for (const BuiltinScene& s : builtin_scenes()) names.push_back(s.name);
+  return names;
+}
+
+class CudaTraversalBuiltin : public ::testing::TestWithParam<std::string> {
+ protected:
+  Scene load() {
+    try {
+      return load_scene(GetParam(), {"render.width=320", "render.height=180"});
+    } catch (const SceneError& e) {
+      skipped_ = e.what();
+      return Scene();
+    }
+  }
+  std::string skipped_;
+};
+
+TEST_P(CudaTraversalBuiltin, AgreesWithEmbree) {
+  const Scene scene = load();
+  if (!skipped_.empty()) GTEST_SKIP() << skipped_;
+  check_scene(scene);
+}
+
+TEST_P(CudaTraversalBuiltin, BvhInvariants) {
+  const Scene scene = load();
+  if (!skipped_.empty()) GTEST_SKIP() << skipped_;
+  check_invariants(scene);
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, CudaTraversalBuiltin, ::testing::ValuesIn(builtin_names()),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           std::string n = info.param;
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });
+
+// Alpha masks without scene data: a floor, a rotated and scaled occluder whose
+// alpha texture is a 4 x 4 checkerboard of holes (nearest lookup), a second
+// placement of it, and a sphere light. Rays through the holes must go on.
+Scene alpha_scene() {
+  json doc = {
+      {"camera", {{"eye", {0, 3, 3}}, {"target", {0, 0, 0}}, {"fov", 50}}},
+      {"render", {{"width", 32}, {"height", 32}}},
+      {"materials", {{"floor", {{"albedo", 0.7}}}, {"mask", {{"albedo", 0.5}}}}},
+      {"shapes",
+       {{{"type", "quad"}, {"corner", {-2, 0, -2}}, {"edge1", {0, 0, 4}}, {"edge2", {4, 0, 0}}, {"material", "floor"}},
+        {{"type", "quad"}, {"corner", {-1, 1, -1}}, {"edge1", {0, 0.3, 2}}, {"edge2", {2, 0.2, 0}},
+         {"material", "mask"}},
+        {{"type", "quad"}, {"corner", {-1.5, 0.5, -1.5}}, {"edge1", {0, 0, 3}}, {"edge2", {3, 0, 0.4}},
+         {"material", "mask"}}}},
+      {"lights", {{{"type", "sphere"}, {"center", {0, 2, 0}}, {"radius", 0.3}, {"radiance", 10}}}}};
+  Scene scene = parse_scene(doc, "alpha-checker", ".");
+  TextureImage img;
+  img.path = "checker";
+  img.width = img.height = 4;
+  img.format = TexelFormat::Rgba8Srgb;
+  img.nearest = true;
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 4; ++x)
+      img.texels.insert(img.texels.end(), {200, 200, 200, uint8_t((x + y) % 2 ? 255 : 0)});
+  scene.textures.push_back(img);
+  for (size_t i = 1; i < scene.instances.size(); ++i) {
+    Material& m = scene.materials[scene.instances[i].material];
+    m.alpha_mode = AlphaMode::Mask;
+    m.alpha_cutoff = 0.5f;
+    m.base_color_tex = int32_t(scene.textures.size() - 1);
+    TriangleMesh& mesh = scene.meshes[scene.instances[i].mesh];
+    mesh.uvs = {Vec2(0.f, 0.f), Vec2(0.f, 1.f), Vec2(1.f, 1.f), Vec2(1.f, 0.f)};
+  }
+  finalize_scene(scene);
+  return scene;
+}
+
+TEST(CudaTraversal, AlphaMasksAgreeWithEmbree) {
+  const Scene scene = alpha_scene();
+  ASSERT_TRUE(scene.instance_alpha_masked(scene.instances[1]));
+  const BvhHost b = build_bvh(scene);
+  EXPECT_TRUE(b.any_alpha_masked);
+  check_scene(scene);
+  check_invariants(scene);
+  // The holes are there: straight down through the occluder, about half of the
+  // rays that meet its quad reach the floor.
+  const std::unique_ptr<HostSceneView> host = make_host_view(scene);
+  const BvhView v = b.view();
+  int floor = 0, occluder = 0;
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) {
+      const Vec3 o(-0.95f + 1.9f * (i + 0.5f) / 40.f, 3.f, -0.95f + 1.9f * (j + 0.5f) / 40.f);
+      const Ray r(o, Vec3(0, -1, 0));
+      HitRecord h;
+      ASSERT_TRUE(bvh_intersect(v, &host->view, r, kInf, &h));
+      (h.instance == 0 ? floor : occluder) += 1;
+    }
+  EXPECT_GT(floor, 1600 / 8);
+  EXPECT_GT(occluder, 1600 / 8);
+}
+
+// An empty scene has nothing to hit.
+TEST(CudaTraversal, EmptySceneMissesEverything) {
+  Scene scene;
+  const BvhHost b = build_bvh(scene);
+  HitRecord h;
+  EXPECT_FALSE(bvh_intersect(b.view(), nullptr, Ray(Vec3(0.f), Vec3(0, 0, 1)), kInf, &h));
+  EXPECT_FALSE(bvh_occluded(b.view(), nullptr, Ray(Vec3(0.f), Vec3(0, 0, 1)), kInf));
+}
+
+}  // namespace
+}  // namespace pn

@@ -1,0 +1,158 @@
+// The integrator's step functions (core/integrator.h) hold a path's whole state
+// between trace calls: a breadth-first schedule (the CPU backend's pools, in a
+// wavefront GPU's order: every closest hit, then every shadow query, consumed
+// after the next closest hits and in reverse path order) renders the image the
+// depth-first one renders, bit for bit, on built-in scenes and techniques.
+// So do the wavefront path tracer's stages (backends/wavefront/wavefront.h),
+// run by the CPU backend's Wavefront schedule (loops over a pool, Embree as the
+// trace stage): with pools smaller than the frame (several waves a call, a
+// pixel's samples in different waves), pools holding several samples of a
+// pixel, and one wave for everything. Also the wavefront pool's memory at 1080p
+// (the GPU issue's bound: under 1 GiB).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "backends/cpu/cpu_backend.h"
+#include "backends/wavefront/wavefront.h"
+#include "render/backend.h"
+#include "scene/scene.h"
+
+namespace pn {
+namespace {
+
+struct Image {
+  std::vector<double> sum, sum_sq;
+  uint64_t nonfinite = 0;
+};
+
+// Samples [first, first + count) of every pixel; `pool`: the Wavefront schedule's paths a wave (0: its default).
+Image render(const Scene& scene, CpuSchedule schedule, uint32_t first, uint32_t count, uint32_t seed,
+             uint32_t pool = 0) {
+  auto backend = make_cpu_backend(scene, 2, schedule, pool);
+  FrameSpec frame = frame_spec(scene);
+  frame.seed = seed;
+  Film film(scene.render.width, scene.render.height);
+  backend->render(frame, film, first, count);
+  const size_t n = film.pixel_count() * 3;
+  return Image{std::vector<double>(film.sum(), film.sum() + n), std::vector<double>(film.sum_sq(), film.sum_sq() + n),
+               backend->last_render_stats().nonfinite};
+}
+
+double total(const std::vector<double>& v) {
+  double t = 0;
+  for (double x : v) t += x;
+  return t;
+}
+
+struct Case {
+  const char* scene;
+  std::vector<std::string> sets;
+};
+
+std::string describe(const Case& c) {
+  std::string s = c.scene;
+  for (const std::string& o : c.sets) s += " " + o;
+  return s;
+}
+
+void PrintTo(const Case& c, std::ostream* os) { *os << describe(c); }
+
+class Schedules : public ::testing::TestWithParam<Case> {};
+
+TEST_P(Schedules, BreadthFirstEqualsDepthFirstBitForBit) {
+  const Case& c = GetParam();
+  std::vector<std::string> o = {"render.width=40", "render.height=24", "render.seed=3"};
+  o.insert(o.end(), c.sets.begin(), c.sets.end());
+  const Scene scene = load_scene(c.scene, o);
+  // 20 samples from sample 5: a tile's pool holds 16 samples of its 256 pixels
+  // (CpuBackend::kPoolPaths), so a second, partial pool runs too.
+  const Image depth = render(scene, CpuSchedule::DepthFirst, 5, 20, 3);
+  const Image breadth = render(scene, CpuSchedule::BreadthFirst, 5, 20, 3);
+  ASSERT_GT(total(depth.sum), 0.0) << describe(c) << ": the image is black, which proves nothing";
+  EXPECT_EQ(depth.sum, breadth.sum) << describe(c);
+  EXPECT_EQ(depth.sum_sq, breadth.sum_sq) << describe(c);
+  EXPECT_EQ(depth.nonfinite, breadth.nonfinite) << describe(c);
+  // The comparison can fail: another seed gives another image.
+  EXPECT_NE(depth.sum, render(scene, CpuSchedule::BreadthFirst, 5, 20, 4).sum) << describe(c);
+}
+
+const Case kCases[] = {
+    {"cornell-sphere", {"render.strategy=solid-angle", "render.mis=power"}},
+    {"cornell-quad", {"render.strategy=area", "render.mis=none", "render.light_selection=uniform"}},
+    {"cornell-quad", {"render.strategy=bsdf"}},
+    {"occlusion", {"render.strategy=projected-solid-angle", "render.mis=balance"}},
+    {"polygon-near", {"render.strategy=solid-angle", "render.mis=power", "render.light_selection=bvh"}},
+    {"glossy", {"render.strategy=solid-angle", "render.mis=power", "render.max_depth=3", "render.rr_depth=1"}},
+    // restir: resampling at the first vertex inside the path, and the frame-level
+    // passes whose primary pass records the first vertex and its reservoir.
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.spatial_passes=0"}},
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir"}},
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.unbiased=false",
+                      "render.mis=none"}},
+};
+
+std::string case_name(const ::testing::TestParamInfo<Case>& info) {
+  std::string n = std::to_string(info.index) + "_" + info.param.scene;
+  for (char& ch : n)
+    if (ch == '-') ch = '_';
+  return n;
+}
+
+INSTANTIATE_TEST_SUITE_P(Builtins, Schedules, ::testing::ValuesIn(kCases), case_name);
+
+class Wavefront : public ::testing::TestWithParam<Case> {};
+
+TEST_P(Wavefront, EqualsDepthFirstBitForBit) {
+  const Case& c = GetParam();
+  std::vector<std::string> o = {"render.width=40", "render.height=24", "render.seed=3"};
+  o.insert(o.end(), c.sets.begin(), c.sets.end());
+  const Scene scene = load_scene(c.scene, o);
+  const Image depth = render(scene, CpuSchedule::DepthFirst, 5, 12, 3);
+  ASSERT_GT(total(depth.sum), 0.0) << describe(c) << ": the image is black, which proves nothing";
+  // 960 pixels x 12 samples = 11,520 paths: pools of 700 (17 waves, each less than a frame, cutting pixels'
+  // sample runs anywhere), 4,000 (three waves of several samples a pixel, the last partial) and 2^20 (one).
+  for (uint32_t pool : {700u, 4000u, 0u}) {
+    const Image wave = render(scene, CpuSchedule::Wavefront, 5, 12, 3, pool);
+    EXPECT_EQ(depth.sum, wave.sum) << describe(c) << ", pool " << pool;
+    EXPECT_EQ(depth.sum_sq, wave.sum_sq) << describe(c) << ", pool " << pool;
+    EXPECT_EQ(depth.nonfinite, wave.nonfinite) << describe(c) << ", pool " << pool;
+  }
+  // The comparison can fail: another seed gives another image.
+  EXPECT_NE(depth.sum, render(scene, CpuSchedule::Wavefront, 5, 12, 4, 700).sum) << describe(c);
+}
+
+const Case kWavefrontCases[] = {
+    {"cornell-sphere", {"render.strategy=solid-angle", "render.mis=power"}},
+    {"cornell-sphere", {"render.strategy=projected-solid-angle", "render.mis=balance"}},
+    {"cornell-quad", {"render.strategy=area", "render.mis=none", "render.light_selection=uniform"}},
+    {"cornell-quad", {"render.strategy=bsdf"}},
+    {"occlusion", {"render.strategy=projected-solid-angle", "render.mis=balance"}},
+    {"polygon-near", {"render.strategy=solid-angle", "render.mis=power", "render.light_selection=bvh"}},
+    {"glossy", {"render.strategy=solid-angle", "render.mis=power", "render.max_depth=3", "render.rr_depth=1"}},
+    {"glossy", {"render.strategy=area", "render.mis=none"}},
+    // restir without spatial reuse: resampling at the first vertex inside on_hit. (With spatial reuse the
+    // backend runs restir's frame-level passes, as every schedule does.)
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.spatial_passes=0"}},
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=power", "render.max_depth=1"}},
+};
+
+INSTANTIATE_TEST_SUITE_P(Builtins, Wavefront, ::testing::ValuesIn(kWavefrontCases), case_name);
+
+// The pool's bytes per path from the sizes of its arrays, and at 1080p (one slot per pixel: one sample of every
+// pixel in one wave, the GPU's default pool) under the 1 GiB.
+TEST(WavefrontMemory, PoolAt1080pIsUnderOneGiB) {
+  const uint64_t per_path = kWavefrontBytesPerPath;
+  const uint64_t pool = wavefront_bytes(1920u * 1080u);
+  std::printf("wavefront path state: %llu bytes a path; 1920x1080 pool: %llu bytes (%.1f MiB)\n",
+              (unsigned long long)per_path, (unsigned long long)pool, double(pool) / (1 << 20));
+  EXPECT_GE(per_path, sizeof(Vec3) * 2 + sizeof(Rng) + sizeof(HitRecord));
+  EXPECT_GE(pool, uint64_t(1920u * 1080u) * per_path);
+  EXPECT_LT(pool, uint64_t(1) << 30);
+}
+
+}  // namespace
+}  // namespace pn
