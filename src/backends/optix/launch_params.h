@@ -88,12 +88,19 @@ struct LaunchParams {
   Reservoir* restir_in = nullptr;
   Reservoir* restir_out = nullptr;
   uint32_t restir_pass = 0;
-// The trace stage's trace-only launches (backends/trace_stage.h): rays in, hits or bits out.
-constexpr uint32_t kRaygenTraceClosest = kNumRaygens + 2;
-constexpr uint32_t kRaygenTraceShadow = kNumRaygens + 3;
-// The denoiser's guides (core/aov.h): one thread per pixel, at the scene's feature level.
-constexpr uint32_t kRaygenGuides = kNumRaygens + 4;
-constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 5;
+  // The guides' launch (kRaygenGuides): each pixel's albedo and normal (xyz,
+  // w = 0) over `spp` camera rays.
+  float4* guide_albedo = nullptr;
+  float4* guide_normal = nullptr;
+  // Trace-only launches (1D, trace_count threads): closest hits into trace_hits
+  // (instance kTraceMiss for a miss), or blocked bits ORed into trace_bits.
+  const TraceRay* trace_rays = nullptr;
+  HitRecord* trace_hits = nullptr;
+  uint32_t* trace_bits = nullptr;
+  uint32_t trace_count = 0;
+  // Where set, the number of rays is this device value instead (at most trace_count, the launch's width): the
+  // wavefront's queues, whose lengths the GPU writes, in launches a CUDA graph replays.
+  const uint32_t* trace_count_device = nullptr;
 };
 
 }  // namespace optix
