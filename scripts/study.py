@@ -1105,6 +1105,239 @@ def finish_many_lights(args, cfg, out_dir, plan_, head, sweep):
     return not (args.check and "many-spheres" in head and not many_check(head, sweep))
 
 
+# --- Denoising (issue 13): does better sampling still pay after the OptiX denoiser? ----
+#
+# For each headline scene and technique, progressive renders at 1, 2, 4, ... max_spp
+# spp (a few seeds), each denoised (OptiX AI denoiser, albedo and normal guides),
+# and the RMSE of the raw and the denoised image against `penumbra converge`'s
+# ground truth of that scene and size (found in, or rendered into, its cache).
+# Needs the Python module and the GPU backend; elsewhere the part says it is
+# skipped, in one line.
+DENOISE_PRESETS = {
+    "full": dict(width=1920, height=1080, reference_spp=16384, reference_chunk=4096, max_spp=64, seeds=4),
+    "gpu": dict(width=640, height=360, reference_spp=4096, reference_chunk=4096, max_spp=64, seeds=2),
+    "smoke": dict(width=32, height=32, reference_spp=1024, reference_chunk=512, max_spp=16, seeds=2),
+}
+DENOISE_TECHNIQUES = [("area", "none"), ("solid-angle", "none"), ("solid-angle", "power")]
+
+
+def denoise_name(strategy, mis):
+    return strategy if mis == "none" else f"{strategy}+{mis}"
+
+
+def denoise_unavailable(args):
+    """Why the denoise part cannot run here (one line), or None."""
+    if args.backend == "cpu":
+        return "denoising needs the GPU backend (the OptiX AI denoiser): --backend cpu"
+    try:
+        import penumbra
+    except ImportError as e:
+        return f"it needs the Python module penumbra ({e}): pip install ., or PYTHONPATH=build/python"
+    info = penumbra.build_info()
+    if not info.get("gpu_available"):
+        return ("denoising needs the GPU backend (the OptiX AI denoiser): "
+                + (info.get("gpu_unavailable_reason") or "no GPU"))
+    return None
+
+
+def denoise_reference(args, scene, cfg):
+    """The converge ground truth of `scene` at the part's size: from the cache, or
+    rendered into it chunk by chunk (render_reference_chunk, store_reference); a float32 (H, W, 3)."""
+    import penumbra
+    opts = dict(width=cfg["width"], height=cfg["height"], reference_spp=cfg["reference_spp"],
+                reference_chunk=cfg["reference_chunk"], backend=args.backend, gpus=args.gpus, cache=args.cache)
+    ref = penumbra.converge_plan(scene, **opts)["reference"]
+    if not ref["cached"]:  # its chunks, added in order and stored as converge() would
+        log(f"study: denoise: {scene}: rendering its ground truth ({ref['spp']} spp, {ref['chunks']} chunks)")
+        sums = sums_sq = None
+        for i in range(ref["chunks"]):
+            c = penumbra.render_reference_chunk(scene, i, **opts)
+            sums = c.sum if sums is None else sums + c.sum
+            sums_sq = c.sum_sq if sums_sq is None else sums_sq + c.sum_sq
+        penumbra.store_reference(scene, sums, sums_sq, **opts)
+    return penumbra.read_exr(ref["path"]), ref
+
+
+def denoise_measure(args, cfg, scenes):
+    """Rows of (scene, technique, spp, seed, rmse_raw, rmse_denoised, denoise_ms), and
+    what ran them (device, guide rays per pixel)."""
+    import numpy as np  # also with --no-report, where matplotlib may be missing
+    import penumbra
+    rows, meta = [], {}
+    spps = [1 << k for k in range(int(math.log2(cfg["max_spp"])) + 1)]
+    for scene in scenes:
+        ref, _ = denoise_reference(args, scene, cfg)
+        # Pixels where a camera ray can see a light (a max-depth-0 render, as converge finds them): their
+        # noise is the same for every strategy. rmse(img, keep) leaves them out.
+        direct = penumbra.render(scene, max_depth=0, spp=16, backend=args.backend, gpus=args.gpus,
+                                 width=cfg["width"], height=cfg["height"]).rgb
+        keep = (direct.max(axis=2) <= 0)[..., None]
+        def rmse(img, mask=None):
+            d2 = (np.asarray(img, np.float64) - ref) ** 2
+            return float(np.sqrt(np.mean(d2) if mask is None else (d2 * mask).sum() / (3 * mask.sum())))
+        r = penumbra.Renderer(scene, backend=args.backend, gpus=args.gpus, width=cfg["width"], height=cfg["height"])
+        for strategy, mis in DENOISE_TECHNIQUES:
+            for seed in range(cfg["seeds"]):
+                r.set(strategy=strategy, mis=mis, seed=seed + 1)  # frame settings: the backend stays
+                for spp in spps:
+                    r.render(spp - r.spp)
+                    img = r.image(denoise=True)
+                    meta = dict(device=img.stats["device"], guide_samples=img.stats.get("guide_samples"))
+                    rows.append(dict(scene=scene, technique=denoise_name(strategy, mis), spp=spp, seed=seed + 1,
+                                     rmse_raw=rmse(img.rgb), rmse_denoised=rmse(img.denoised),
+                                     rmse_raw_nolight=rmse(img.rgb, keep),
+                                     rmse_denoised_nolight=rmse(img.denoised, keep),
+                                     denoise_ms=img.stats.get("denoise_ms", 0.0)))
+            log(f"study: denoise: {scene} {denoise_name(strategy, mis)}: 1..{spps[-1]} spp x {cfg['seeds']} seeds")
+    return rows, meta
+
+
+def denoise_table(rows, suffix=""):
+    """{scene: {technique: {spp: (mean raw RMSE, mean denoised RMSE)}}} over seeds; suffix "_nolight":
+    without the pixels that see a light."""
+    acc = {}
+    for r in rows:
+        d = acc.setdefault(r["scene"], {}).setdefault(r["technique"], {}).setdefault(r["spp"], [[], []])
+        d[0].append(r["rmse_raw" + suffix])
+        d[1].append(r["rmse_denoised" + suffix])
+    return {sc: {t: {spp: (sum(v[0]) / len(v[0]), sum(v[1]) / len(v[1])) for spp, v in sorted(ts.items())}
+                 for t, ts in techs.items()} for sc, techs in acc.items()}
+
+
+def plot_denoise(table, path):
+    scenes = list(table)
+    fig, axes = plt.subplots(1, len(scenes), figsize=(4.6 * len(scenes), 4.0), squeeze=False)
+    colors = {"area": COLORS["area"], "solid-angle": COLORS["solid-angle"], "solid-angle+power": "#2ca02c"}
+    for ax, scene in zip(axes[0], scenes):
+        for t, pts in table[scene].items():
+            spp = sorted(pts)
+            c = colors.get(t, "#7f7f7f")
+            ax.loglog(spp, [pts[s][0] for s in spp], "--", color=c, marker="o", ms=3, label=f"{t} raw")
+            ax.loglog(spp, [pts[s][1] for s in spp], "-", color=c, marker="s", ms=3, label=f"{t} denoised")
+        ax.set_title(scene)
+        ax.set_xlabel("samples per pixel")
+        ax.set_xscale("log", base=2)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].set_ylabel("RMSE against the ground truth")
+    axes[0][0].legend(fontsize=7)
+    fig.suptitle("RMSE before (dashed) and after (solid) the OptiX denoiser")
+    fig.tight_layout()
+    def w(tmp):
+        fig.savefig(tmp, dpi=110, format="png")
+    write_atomic(path, w)
+    plt.close(fig)
+
+
+def denoise_ratios(table):
+    """{scene: {spp: (area/solid-angle raw, area/solid-angle denoised)}}: RMSE ratios at equal spp."""
+    out = {}
+    for scene, ts in table.items():
+        if "area" in ts and "solid-angle" in ts:
+            out[scene] = {spp: (ts["area"][spp][0] / ts["solid-angle"][spp][0],
+                                ts["area"][spp][1] / ts["solid-angle"][spp][1]) for spp in sorted(ts["area"])}
+    return out
+
+
+def write_denoise_report(args, cfg, rows, out_dir, meta):
+    table, table_nl = denoise_table(rows), denoise_table(rows, "_nolight")
+    plot_denoise(table, os.path.join(out_dir, "denoise_rmse.png"))
+    lines = []
+    w = lines.append
+    w("# Denoising: does better light sampling still pay after the denoiser?\n")
+    w(f"Generated by `python3 scripts/study.py --preset {args.preset} --part denoise` on "
+      f"{datetime.date.today().isoformat()} ({meta.get('device', '?')}).\n")
+    w(f"Each headline scene at {cfg['width']}x{cfg['height']}, rendered progressively at 1, 2, 4, ... "
+      f"{cfg['max_spp']} spp with {cfg['seeds']} seeds per technique; every image denoised by the OptiX AI\n"
+      f"denoiser (AOV model; albedo and world-space normal guides of the first non-specular hit, `core/aov.h`, "
+      f"{meta.get('guide_samples', '?')} camera rays per pixel).\n"
+      f"RMSE (thesis eq. 4.1, linear radiance) of the raw and the denoised image against `penumbra converge`'s "
+      f"ground truth of the same scene and size\n({cfg['reference_spp']} spp, solid-angle + MIS power, from the "
+      f"converge cache), the mean over seeds. Median denoiser time per image: {meta.get('denoise_ms', 0):.1f} ms "
+      f"(GPU).\nData: `denoise.csv` (every render), `denoise.json`.\n")
+    w("![RMSE vs spp, raw dashed, denoised solid](denoise_rmse.png)\n")
+    techs = [denoise_name(s, m) for s, m in DENOISE_TECHNIQUES]
+    for title, tab in (("Denoised RMSE (all pixels)", table),
+                       ("Denoised RMSE without the pixels that see a light", table_nl)):
+        w(f"## {title}\n")
+        for scene, ts in tab.items():
+            present = [t for t in techs if t in ts]
+            w(f"**{scene}**\n")
+            w("| spp | " + " | ".join(f"{t} raw | {t} denoised" for t in present) + " |")
+            w("| ---: | " + " | ".join("---: | ---:" for _ in present) + " |")
+            for spp in sorted(ts[present[0]]):
+                w(f"| {spp} | " + " | ".join(f"{fmt(ts[t][spp][0], 4)} | {fmt(ts[t][spp][1], 4)}" for t in present)
+                  + " |")
+            w("")
+    w("## DISCUSSION\n")
+    w("RMSE(area) / RMSE(solid-angle) at equal spp, raw / denoised (> 1: solid-angle sampling is better by that "
+      "factor):\n")
+    summary = {}
+    for title, tab in (("all pixels", table), ("without light pixels", table_nl)):
+        ratios = denoise_ratios(tab)
+        summary[title] = ratios
+        if not ratios:
+            continue
+        spps = sorted(next(iter(ratios.values())))
+        w(f"| {title} | " + " | ".join(f"{spp} spp" for spp in spps) + " |")
+        w("| --- |" + " ---: |" * len(spps))
+        for scene, rs in ratios.items():
+            w(f"| {scene} | " + " | ".join(f"{rs[spp][0]:.2f} / {rs[spp][1]:.2f}" for spp in spps) + " |")
+        w("")
+    for scene, rs in summary.get("without light pixels", {}).items():
+        raw, den = [a for a, _ in rs.values()], [d for _, d in rs.values()]
+        gain = [table_nl[scene]["area"][spp][0] / table_nl[scene]["area"][spp][1] for spp in sorted(rs)]
+        w(f"- **{scene}** (without light pixels): solid-angle's advantage over area is {min(raw):.2f}-{max(raw):.2f}x "
+          f"in RMSE raw and {min(den):.2f}-{max(den):.2f}x after denoising; the denoiser alone lowers area's RMSE "
+          f"{min(gain):.1f}-{max(gain):.1f}x.")
+    w("")
+    write_text(os.path.join(out_dir, "README.md"), "\n".join(lines) + "\n")
+    return summary
+
+
+def denoise_csv(rows, path):
+    def w(tmp):
+        with open(tmp, "w", newline="") as f:
+            wr = csv.DictWriter(f, fieldnames=list(rows[0]))
+            wr.writeheader()
+            wr.writerows(rows)
+    write_atomic(path, w)
+
+
+def run_denoise(args, out_dir):
+    """The denoise part: measures (unless --report-only), writes CSV, JSON and the report.
+    Returns False when --check fails; says in one line when it is skipped."""
+    cfg = DENOISE_PRESETS[args.preset]
+    data_path = os.path.join(out_dir, "denoise.json")
+    if args.report_only:
+        if not os.path.exists(data_path):
+            log(f"study: denoise part skipped: no {data_path} (run it on a GPU first)")
+            return True
+        with open(data_path) as f:
+            data = json.load(f)
+        rows, meta = data["rows"], data["meta"]
+    else:
+        why = denoise_unavailable(args)
+        if why:
+            log(f"study: denoise part skipped: {why}")
+            return True
+        scenes = HEADLINE if not args.scene else [s for s in args.scene if s in HEADLINE]
+        os.makedirs(out_dir, exist_ok=True)
+        rows, meta = denoise_measure(args, cfg, scenes)
+        ms = sorted(r["denoise_ms"] for r in rows)
+        meta.update(denoise_ms=ms[len(ms) // 2] if ms else 0.0, preset=cfg)
+        denoise_csv(rows, os.path.join(out_dir, "denoise.csv"))
+        write_text(data_path, json.dumps({"rows": rows, "meta": meta}, indent=1))
+    if args.no_report:
+        return True
+    summary = write_denoise_report(args, cfg, rows, out_dir, meta)
+    log(f"study: wrote {os.path.join(out_dir, 'README.md')}")
+    if args.check:  # the denoiser must lower the error at 1 spp on every scene
+        failures = [f"{sc}: denoised RMSE {d:.4g} >= raw {a:.4g} at 1 spp" for sc, ts in denoise_table(rows).items()
+                    for t, pts in ts.items() for a, d in [pts[min(pts)]] if d >= a]
+        return checks_passed("DENOISE CHECK", failures)
+    return True
+
+
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -1133,11 +1366,12 @@ def main():
                     help="ray without --address: the CPUs the Ray instance on this machine may use (default: all)")
     ap.add_argument("--retries", type=int, default=3,
                     help="ray: how often a task whose worker or machine is lost runs again (Ray's max_retries)")
-    ap.add_argument("--part", choices=["thesis", "lab", "many-lights", "all"], default="all",
+    ap.add_argument("--part", choices=["thesis", "lab", "many-lights", "denoise", "all"], default="all",
                     help="thesis: chapter 4 (area against solid-angle, docs/results/README.md); lab: every strategy and "
                          "MIS mode on the lab's scenes (docs/results/lab/README.md); many-lights: light selection "
                          "methods at equal time and the lights-count sweep (docs/results/many-lights/README.md); "
-                         "all: the three")
+                         "denoise: raw and denoised RMSE per strategy, 1-64 spp, on the headline scenes (GPU only; "
+                         "docs/results/denoise/README.md); all: the four")
     ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
     ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES) | set(MANY_SCENES)),
                     help="run only this headline scene (repeatable): split a long study over several GPU calls, "
@@ -1198,6 +1432,8 @@ def main():
             log(f"study: wrote {os.path.join(args.out, 'README.md')}")
         if args.check and head and not check(head):
             ok = False
+    if args.part in ("denoise", "all"):
+        ok = run_denoise(args, os.path.join(args.out, "denoise")) and ok
     if not ok:
         sys.exit(1)
     if not args.keep_runs:

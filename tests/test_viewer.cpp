@@ -196,6 +196,9 @@ TEST(CameraPath, BadInputIsOneLineNamingTheEntry) {
   EXPECT_EQ(error("[{\"frame\": 0, \"screenshot\": \"a.png\"}]"),
             "p.json: [0].screenshot: needs a frame >= 1: there is no image before the first frame");
   EXPECT_EQ(error("[1, 2"), "p.json: invalid JSON");
+  // The denoise toggle (key N) as a scripted action: a boolean.
+  EXPECT_EQ(error("[{\"frame\": 1, \"denoise\": true}]"), "no error");
+  EXPECT_NE(error("[{\"frame\": 1, \"denoise\": 2}]").find("p.json: [0].denoise"), std::string::npos);
 }
 
 TEST(Display, FastSrgbIsExactlyThePngEncoding) {

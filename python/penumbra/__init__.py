@@ -42,6 +42,7 @@ SceneLike = Union[str, "os.PathLike[str]", Mapping[str, Any], "Scene"]
 file), or a Scene."""
 
 _BACKENDS = ("auto", "cpu", "optix")
+_DENOISE_NEEDS_GPU = "denoising needs the GPU backend (the OptiX AI denoiser)"
 
 
 def _jsonable(value: Any) -> Any:
@@ -208,7 +209,9 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
             ``image.stats["note"]`` says which and why).
         mis: multiple importance sampling ("none", "balance" or "power"), passed as the
             scene value render.mis where this penumbra's scenes have it.
-        denoise: not available yet: raises BackendError.
+        denoise: also denoise the image with the OptiX AI denoiser (GPU backend only):
+            ``image.denoised`` is the denoised mean and ``image.albedo``, ``image.normal`` the
+            denoiser's guides, float32 (H, W, 3) numpy arrays (None without denoise).
         overrides: other scene values to change (see load_scene).
         threads: CPU threads (default: all cores).
         gpus: the GPUs of the "optix" backend: "all" (default), a number N (the first N)
@@ -218,15 +221,20 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
 
     Raises:
         SceneError: a bad scene or setting (names the field).
-        BackendError: the backend cannot run here, or failed.
+        BackendError: the backend cannot run here, or failed; denoise=True on the CPU backend
+            (before any rendering).
         KeyboardInterrupt: Ctrl-C stops the render.
     """
-    if denoise:
-        raise BackendError("denoise=True: denoising (the OptiX AI denoiser) is not available in this penumbra yet")
+    if denoise and _check_backend(backend) == "cpu":
+        raise BackendError(f"denoise=True: {_DENOISE_NEEDS_GPU}: backend='cpu' renders on the CPU")
     s = load_scene(scene, overrides)
     r = Renderer(s, backend=backend, strategy=strategy, spp=spp, width=width, height=height, seed=seed,
                  max_depth=max_depth, mis=mis, threads=threads, gpus=gpus)
-    return r.render(r.settings["spp"], progress=progress)
+    if denoise and r.backend != "optix":
+        raise BackendError(f"denoise=True: {_DENOISE_NEEDS_GPU}: the image is rendered on the {r.backend} backend "
+                           f"({r.note})")
+    img = r.render(r.settings["spp"], progress=progress)
+    return r.image(denoise=True) if denoise else img
 
 
 class Renderer:
@@ -265,9 +273,13 @@ class Renderer:
         self._r.render(spp, progress)
         return self._r.image()
 
-    def image(self) -> Image:
-        """The image of all samples so far (a snapshot: later samples do not change it)."""
-        return self._r.image()
+    def image(self, *, denoise: bool = False) -> Image:
+        """The image of all samples so far (a snapshot: later samples do not change it).
+
+        With ``denoise`` (GPU backend only, else BackendError), also ``image.denoised``
+        and its guides ``image.albedo``, ``image.normal`` (see render()); the guides are
+        rendered once per frame and kept until the image starts over."""
+        return self._r.image(denoise)
 
     def reset(self) -> None:
         """Drops the samples: the next render() starts a new image."""

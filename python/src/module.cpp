@@ -148,6 +148,14 @@ HostArray host_view(PyImage& self, bool variance) {
   return HostArray(data, 3, shape, nb::find(&self));
 }
 
+// The denoised image or a guide (a read-only numpy view), or None without denoising.
+nb::object denoise_view(PyImage& self, const std::vector<float>& v) {
+  const ImageData& img = *self.data;
+  if (v.empty()) return nb::none();
+  size_t shape[3] = {size_t(img.height), size_t(img.width), 3};
+  return nb::cast(HostArray(v.data(), 3, shape, nb::find(&self)));
+}
+
 DlpackArray dlpack_of(PyImage& self, bool variance) {
   ImageData& img = *self.data;
   nb::handle owner = nb::find(&self);
@@ -275,6 +283,12 @@ them without a copy to the host.)")
       .def_prop_ro("rgb", [](PyImage& i) { return host_view(i, false); }, "Mean radiance, float32 (H, W, 3), read-only")
       .def_prop_ro("variance", [](PyImage& i) { return host_view(i, true); },
                    "Variance of the mean, float32 (H, W, 3), read-only")
+      .def_prop_ro("denoised", [](PyImage& i) { return denoise_view(i, i.data->denoised); },
+                   "The mean denoised by the OptiX AI denoiser, float32 (H, W, 3), read-only; None unless denoised")
+      .def_prop_ro("albedo", [](PyImage& i) { return denoise_view(i, i.data->albedo); },
+                   "The denoiser's albedo guide, float32 (H, W, 3) in [0, 1]; None unless denoised")
+      .def_prop_ro("normal", [](PyImage& i) { return denoise_view(i, i.data->normal); },
+                   "The denoiser's normal guide: unit world-space normals (0 where rays escaped); None unless denoised")
       .def(
           "rgb_dlpack", [](PyImage& i) { return dlpack_of(i, false); },
           "The mean as a DLPack-capable array, float32 (H, W, 3), without a copy: on the GPU for GPU results, "
@@ -349,7 +363,9 @@ them without a copy to the host.)")
             });
           },
           "spp"_a, "progress"_a.none() = nb::none())
-      .def("image", [](Renderer& r) { return PyImage{backend_call([&] { return r.image(); })}; })
+      .def(
+          "image", [](Renderer& r, bool denoise) { return PyImage{backend_call([&] { return r.image(denoise); })}; },
+          "denoise"_a = false)
       .def("reset",
            [](Renderer& r) {
              backend_call([&] {

@@ -7,6 +7,7 @@
 #if PN_HAVE_OPTIX
 #include "backends/optix/optix_backend.h"
 #include "device_image.h"
+#include "render/denoise.h"
 #endif
 
 namespace pn::py {
@@ -142,6 +143,7 @@ void Renderer::restart() {
   const int W = frame_.camera.width, H = frame_.camera.height;
   render_seconds_ = gpu_ms_ = 0;
   rays_ = 0;
+  guides_ = GuideImages();
 #if PN_HAVE_OPTIX
   if (optix_) {
     optix_->reset(frame_);
@@ -254,8 +256,9 @@ json Renderer::stats() const {
   return s;
 }
 
-std::shared_ptr<ImageData> Renderer::image() {
+std::shared_ptr<ImageData> Renderer::image(bool denoise) {
   std::lock_guard<std::recursive_mutex> lock(mutex_);
+  if (denoise) check_denoise_backend("denoise=True", backend(), note_);
   auto img = std::make_shared<ImageData>();
   img->width = frame_.camera.width;
   img->height = frame_.camera.height;
@@ -265,12 +268,27 @@ std::shared_ptr<ImageData> Renderer::image() {
   if (optix_) {
     img->device = DeviceImage::from_sums(optix_->device_sums(), optix_->device_sums_sq(), img->count(), img->spp,
                                          optix_->cuda_device());
-    return img;
   }
 #endif
-  img->rgb_ = film_.mean();
-  img->variance_ = film_.variance_of_mean();
-  img->host_ready_ = true;
+  if (!img->device) {
+    img->rgb_ = film_.mean();
+    img->variance_ = film_.variance_of_mean();
+    img->host_ready_ = true;
+  }
+  if (denoise) {
+    const auto t0 = Clock::now();
+    if (guides_.width != img->width || guides_.height != img->height)
+      guides_ = backend().render_guides(frame_, kGuideSamples);
+    const double guide_ms = seconds_since(t0) * 1e3;
+    const float* rgb = img->rgb();
+    double denoise_ms = 0;
+    img->denoised = denoise_image(backend(), std::vector<float>(rgb, rgb + img->count()), guides_, &denoise_ms);
+    img->albedo = guides_.albedo;
+    img->normal = guides_.normal;
+    img->stats["denoise_ms"] = denoise_ms;
+    img->stats["guide_ms"] = guide_ms;
+    img->stats["guide_samples"] = kGuideSamples;
+  }
   return img;
 }
 

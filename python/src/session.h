@@ -66,6 +66,10 @@ class ImageData {
   const float* variance();
   size_t count() const { return size_t(width) * height * 3; }
 
+  // With image(true): the denoised mean and the denoiser's guides (core/aov.h),
+  // host arrays of count() floats; empty otherwise.
+  std::vector<float> denoised, albedo, normal;
+
  private:
   friend class Renderer;
   void ensure_host();
@@ -93,7 +97,11 @@ class Renderer {
   // Adds `spp` samples per pixel. An exception from `progress` stops the render;
   // the samples of completed calls (on the GPU: of completed launches) are kept.
   void render(uint32_t spp, const ProgressFn& progress);
-  std::shared_ptr<ImageData> image();
+  // A snapshot of the image; with `denoise`, also the image denoised by the
+  // OptiX AI denoiser and its guides (GPU backend only: else std::runtime_error
+  // with one line). The guides are rendered once per frame and kept until the
+  // image starts over.
+  std::shared_ptr<ImageData> image(bool denoise = false);
   void reset();
 
   uint64_t samples() const;
@@ -123,6 +131,7 @@ class Renderer {
   int builds_ = 0;
   double build_seconds_ = 0, render_seconds_ = 0, gpu_ms_ = 0;
   uint64_t rays_ = 0;
+  GuideImages guides_;  // of frame_, when guides_.width > 0
 };
 
 }  // namespace pn::py

@@ -109,3 +109,20 @@ def test_gpus_selects_gpus_and_splits_the_samples():
     for spp in (300, 700):
         a, b = r1.render(spp), r2.render(spp)
     assert b.spp == 1000 and b.rgb.tobytes() == a.rgb.tobytes()
+
+
+def test_gpu_denoise_lowers_the_error_and_keeps_the_guides_in_range():
+    ref = penumbra.render("cornell-sphere", spp=4096, seed=7, backend="optix", **SIZE).rgb
+    img = penumbra.render("cornell-sphere", spp=4, seed=1, backend="optix", denoise=True, **SIZE)
+    assert img.denoised.shape == img.rgb.shape == img.albedo.shape == img.normal.shape == (54, 96, 3)
+    assert img.denoised.dtype == np.float32 and np.isfinite(img.denoised).all()
+    assert img.albedo.min() >= 0.0 and img.albedo.max() <= 1.0
+    lengths = np.linalg.norm(img.normal, axis=2)
+    surface = lengths > 0  # 0: every ray of the pixel escaped
+    np.testing.assert_allclose(lengths[surface], 1.0, atol=1e-4)
+    assert surface.mean() > 0.9
+    rmse = lambda a: float(np.sqrt(np.mean((a - ref) ** 2)))  # noqa: E731
+    assert rmse(img.denoised) < 0.7 * rmse(img.rgb), (rmse(img.denoised), rmse(img.rgb))
+    # the raw image is the one render() without denoise gives
+    plain = penumbra.render("cornell-sphere", spp=4, seed=1, backend="optix", **SIZE)
+    assert np.array_equal(plain.rgb, img.rgb)

@@ -14,6 +14,7 @@
 #include "io/image.h"
 #include "io/output.h"
 #include "render/backend.h"
+#include "render/denoise.h"
 #include "render/resources.h"
 #include "scene/scene.h"
 
@@ -35,11 +36,20 @@ struct RenderArgs {
   int threads = 0;
   float exposure = 0.f;
   bool stats = false;
+  bool denoise = false;  // also <name>_denoised.<ext> (GPU backend)
+  bool aov = false;      // also <name>_albedo.exr and <name>_normal.exr (the denoiser's guides)
   std::vector<std::string> sets;
 };
 
 std::string default_output(const std::string& scene) {
   return std::filesystem::path(scene).stem().string() + ".png";
+}
+
+// "out/x.png" -> "out/x_denoised.png" (suffix "_denoised"), with another extension if `ext` is given.
+std::string sibling_output(const std::string& out, const std::string& suffix, const std::string& ext = "") {
+  std::filesystem::path p(out);
+  const std::string name = p.stem().string() + suffix + (ext.empty() ? p.extension().string() : ext);
+  return (p.parent_path() / name).string();
 }
 
 // A render split across devices: each device's samples and times.
@@ -92,6 +102,19 @@ int run_render(const RenderArgs& a) {
     check_output_file(a.variance, "--variance");
     outputs.push_back({"--variance", a.variance});
   }
+  const std::string denoised = sibling_output(out, "_denoised");
+  const std::string albedo = sibling_output(out, "_albedo", ".exr"), normal = sibling_output(out, "_normal", ".exr");
+  if (a.denoise) {
+    check_denoise_choice("--denoise", a.backend);
+    check_output_file(denoised, "--denoise");
+    outputs.push_back({"--denoise", denoised});
+  }
+  if (a.aov) {
+    check_output_file(albedo, "--aov");
+    check_output_file(normal, "--aov");
+    outputs.push_back({"--aov", albedo});
+    outputs.push_back({"--aov", normal});
+  }
   check_distinct_outputs(outputs);
 
   // Command-line settings are overrides like any --set, validated in one place.
@@ -122,6 +145,7 @@ int run_render(const RenderArgs& a) {
   opts.traversal = a.traversal;
   std::string note;
   std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
+  if (a.denoise) check_denoise_backend("--denoise", *backend, note);  // one line: the note goes into it
   std::fprintf(stderr, "%s\n", note.c_str());
 
   std::fprintf(stderr, "%s: %dx%d, %d spp, strategy %s, MIS %s, light selection %s, max depth %d, seed %u\n",
@@ -140,6 +164,24 @@ int run_render(const RenderArgs& a) {
   if (!a.variance.empty()) {
     std::fprintf(stderr, "writing %s\n", a.variance.c_str());
     write_image(a.variance, r.width, r.height, film.variance_of_mean());
+  }
+  if (a.denoise || a.aov) {
+    const FrameSpec frame = frame_spec(scene);
+    DenoisedImage d;
+    if (a.denoise) {
+      d = denoise_render(*backend, frame, film.mean());
+      release_denoisers();  // its GPU memory, before the process ends
+      std::fprintf(stderr, "denoised: guides %.1f ms (%u rays a pixel), OptiX denoiser %.1f ms GPU; writing %s\n",
+                   d.guide_ms, kGuideSamples, d.denoise_ms, denoised.c_str());
+      write_image(denoised, r.width, r.height, d.rgb, a.exposure);
+    } else {
+      d.guides = backend->render_guides(frame, kGuideSamples);
+    }
+    if (a.aov) {
+      std::fprintf(stderr, "writing %s and %s\n", albedo.c_str(), normal.c_str());
+      write_image(albedo, r.width, r.height, d.guides.albedo);
+      write_image(normal, r.width, r.height, d.guides.normal);
+    }
   }
   const double seconds = bar.elapsed();  // rendering and writing
   double samples = double(r.width) * r.height * r.spp;
@@ -193,6 +235,9 @@ Command add_render_command(CLI::App& app) {
       ->check(CLI::Range(-64.f, 64.f));
   sub->add_option("--variance", a->variance, "Also write the per-pixel variance of the mean (EXR)");
   sub->add_flag("--stats", a->stats, "Print scene and timing statistics");
+  sub->add_flag("--denoise", a->denoise,
+                "Also write <output>_denoised.<ext>: the OptiX AI denoiser, albedo and normal guides (GPU backend)");
+  sub->add_flag("--aov", a->aov, "Also write the denoiser's guides, <output>_albedo.exr and <output>_normal.exr");
   return {sub, [a]() { return run_render(*a); }};
 }
 

@@ -36,6 +36,10 @@ void note_nonfinite_pixel(RenderStats& stats, int x, int y, int width) {
   if (v.size() > RenderStats::kMaxNonfinitePixels) v.pop_back();
 }
 
+GuideImages Backend::render_guides(const FrameSpec&, uint32_t) {
+  throw std::logic_error("the " + name() + " backend renders no denoiser guides");
+}
+
 FrameSpec frame_spec(const Scene& scene) {
   FrameSpec f;
   f.camera = scene.make_camera();

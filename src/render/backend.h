@@ -85,6 +85,14 @@ struct SceneBuildStats {
   uint64_t estimated_bytes = 0;     // the estimate checked against free memory before building (GPU)
 };
 
+// A denoiser's guide images (core/aov.h): per pixel, the albedo in [0, 1] and
+// the unit world-space normal (0: the rays escaped) of the first non-specular
+// surface, 3 floats a pixel each, row 0 at the top.
+struct GuideImages {
+  int width = 0, height = 0;
+  std::vector<float> albedo, normal;
+};
+
 class Backend {
  public:
   virtual ~Backend() = default;
@@ -98,6 +106,10 @@ class Backend {
                       const ProgressFn& progress = nullptr) = 0;
   // Statistics of the last render() call.
   virtual RenderStats last_render_stats() const { return {}; }
+  // The denoiser's guides of the frame, each pixel's mean over `samples`
+  // jittered camera rays (those of its samples 0 .. samples - 1), through the
+  // backend's closest-hit query. The default throws std::logic_error.
+  virtual GuideImages render_guides(const FrameSpec& frame, uint32_t samples);
   // The split of `count` samples (from some first sample) into sample ranges
   // that keeps the image of this backend bit for bit: a multiple of this many
   // samples per range (the GPU's samples per launch: its per-launch sums are

@@ -41,6 +41,12 @@ class MultiBackend final : public Backend {
   uint32_t split_granularity(const FrameSpec& frame, uint32_t count) const override {
     return devices_.front()->split_granularity(frame, count);
   }
+  // Device 0's: the guides are cheap next to the samples.
+  GuideImages render_guides(const FrameSpec& frame, uint32_t samples) override {
+    return devices_.front()->render_guides(frame, samples);
+  }
+  // Device 0, for what runs on one GPU after the render (the denoiser).
+  Backend& first_device() const { return *devices_.front(); }
 
   size_t device_count() const { return devices_.size(); }
 

@@ -123,6 +123,7 @@ const std::map<std::string, Check>& checks() {
       {"split", boolean()},           {"split_left", strategy()},
       {"split_right", strategy()},    {"divider", number_in(0, 1)},
       {"equal_time", boolean()},      {"panel", boolean()},
+      {"denoise", boolean()},
       {"screenshot", file(true, true)},     {"window_screenshot", file(true, false, true)},
       {"save_camera", file(true, false)},   {"load_camera", file(false, false)},
       {"quit", boolean(true)},

@@ -34,6 +34,7 @@
 #include "io/image.h"
 #include "io/output.h"
 #include "render/backend.h"
+#include "render/denoise.h"
 #include "scene/scene.h"
 
 #if PN_VIEWER_INTEROP
@@ -160,6 +161,7 @@ class Viewer {
   int divider_column() const;  // first column of the right side
   void restart(const ImageSettings& s);
   std::vector<float> composed_mean() const;
+  bool show_denoised();
   std::string screenshot_stem() const;
   void screenshot(const std::string& path);
   void screenshot_button();
@@ -201,6 +203,11 @@ class Viewer {
   float divider_ = 0.5f;  // fraction of the width
   bool panel_ = true;
   bool fly_ = false;
+  // Denoise toggle (N, the panel): the screen shows the composed image denoised
+  // by the OptiX AI denoiser, with guides rendered once per restart.
+  bool denoise_ = false;
+  FrameSpec guide_frame_;
+  GuideImages guides_;
   float fly_speed_ = 1.f;  // scene units per second
   std::string camera_file_;
   std::string status_;  // last message in the panel
@@ -468,6 +475,8 @@ void Viewer::restart(const ImageSettings& s) {
     side.image->restart(f);
     return side;
   };
+  guide_frame_ = base;
+  guides_ = GuideImages();  // rendered again when next shown denoised
   sides_.clear();
   if (!s.split) {
     sides_.push_back(make_side(s.strategy, base.seed));
@@ -618,6 +627,7 @@ void Viewer::on_key(GLFWwindow* w, int key, int, int action, int mods) {
   if (key == GLFW_KEY_R) v->camera_.reset();
   if (key == GLFW_KEY_F) v->fly_ = !v->fly_;
   if (key == GLFW_KEY_P) v->screenshot_requested_ = true;
+  if (key == GLFW_KEY_N) v->denoise_ = !v->denoise_;
 }
 
 void Viewer::on_scroll(GLFWwindow* w, double, double dy) {
@@ -733,6 +743,10 @@ void Viewer::draw_panel() {
   ImGui::SliderInt("max depth", &max_depth_, 0, 32);
   ImGui::SliderFloat("exposure", &exposure_, -8.f, 8.f, "%+.1f stops");
   ImGui::SliderFloat("resolution", &scale_, 0.05f, 2.f, "x %.2f", ImGuiSliderFlags_Logarithmic);
+  ImGui::Checkbox("denoise (N)", &denoise_);
+  ImGui::SameLine();
+  ImGui::TextDisabled(backend_->name() == "optix" ? "OptiX AI denoiser, albedo + normal guides"
+                                                  : "needs the GPU backend");
 
   if (ImGui::CollapsingHeader("Split screen", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::Checkbox("split", &split_);
@@ -817,6 +831,36 @@ void Viewer::draw_overlay() {
   }
 }
 
+// The denoise toggle: this frame's composed image, denoised, tone-mapped on the
+// host and uploaded (the host path also under interop: the denoiser's output is
+// a host image). False, and the toggle off with a status line, where it cannot
+// run (the CPU backend: one line saying it needs the GPU backend).
+bool Viewer::show_denoised() {
+  try {
+    check_denoise_backend("denoise", *backend_);
+    if (guides_.width != applied_.width || guides_.height != applied_.height)
+      guides_ = backend_->render_guides(guide_frame_, kGuideSamples);
+    const std::vector<float> rgb = denoise_image(*backend_, composed_mean(), guides_);
+    const DisplayPixels px = display_->host_pixels();
+    const float gain = std::exp2(exposure_);
+    for (int y = 0; y < px.height; ++y) {
+      unsigned char* row = px.data + size_t(y) * px.row_bytes;
+      for (int x = 0; x < px.width; ++x) {
+        const float* p = rgb.data() + (size_t(y) * px.width + x) * 3;
+        for (int c = 0; c < 3; ++c) row[4 * x + c] = to_srgb8(p[c] * gain);
+        row[4 * x + 3] = 255;
+      }
+    }
+    display_->upload();
+    return true;
+  } catch (const std::exception& e) {
+    status_ = e.what();
+    std::fprintf(stderr, "view: %s\n", e.what());
+    denoise_ = false;
+    return false;
+  }
+}
+
 void Viewer::apply(const PathAction& a) {
   const auto& v = a.value;
   auto f = [&](size_t i) { return v[i].get<float>(); };
@@ -851,6 +895,7 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "divider") divider_ = v.get<float>();
   else if (k == "equal_time") equal_time_ = v.get<bool>();
   else if (k == "panel") panel_ = v.get<bool>();
+  else if (k == "denoise") denoise_ = v.get<bool>();
   else if (k == "screenshot") screenshot(v.get<std::string>());  // frame >= 1 (checked): an image exists
   else if (k == "window_screenshot") pending_window_shots_.push_back(v.get<std::string>());
   else if (k == "save_camera") save_camera_file(v.get<std::string>());
@@ -898,12 +943,14 @@ int Viewer::run() {
     const auto td = Clock::now();
     // Interop: CUDA writes the mapped GL pixel buffer; host: the staging buffer, uploaded.
     const bool device = sides_[0].image->writes_device_pixels();
-    DisplayPixels px = device ? display_->map_device_pixels() : display_->host_pixels();
-    const int d = divider_column();
-    sides_[0].image->tone_map(px, 0, d, exposure_);
-    if (sides_.size() > 1) sides_[1].image->tone_map(px, d, applied_.width, exposure_);
-    if (device) display_->upload_mapped();
-    else display_->upload();
+    if (!(denoise_ && show_denoised())) {
+      DisplayPixels px = device ? display_->map_device_pixels() : display_->host_pixels();
+      const int d = divider_column();
+      sides_[0].image->tone_map(px, 0, d, exposure_);
+      if (sides_.size() > 1) sides_[1].image->tone_map(px, d, applied_.width, exposure_);
+      if (device) display_->upload_mapped();
+      else display_->upload();
+    }
     const double display_ms = ms_since(td);
 
     display_->draw(fw, fh);

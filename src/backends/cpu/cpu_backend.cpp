@@ -22,6 +22,7 @@
 
 #include <embree3/rtcore.h>
 
+#include "core/aov.h"
 #include "core/geometry.h"
 #include "core/integrator.h"
 #include "core/restir.h"
@@ -305,6 +306,29 @@ class CpuBackend final : public Backend {
   }
 
   RenderStats last_render_stats() const override { return stats_; }
+
+  GuideImages render_guides(const FrameSpec& frame, uint32_t samples) override {
+    const int W = frame.camera.width, H = frame.camera.height;
+    GuideImages g;
+    g.width = W;
+    g.height = H;
+    g.albedo.assign(size_t(W) * H * 3, 0.f);
+    g.normal.assign(size_t(W) * H * 3, 0.f);
+    Tracer tracer{this};
+    for_each_tile(W, H, 1, nullptr, [&](uint32_t, int x0, int y0, int x1, int y1) {
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          const GuideSample s = render_guides_pixel(tracer, view_, frame.camera, x, y, samples, frame.seed);
+          const size_t o = (size_t(y) * W + x) * 3;
+          for (int c = 0; c < 3; ++c) {
+            g.albedo[o + c] = s.albedo[c];
+            g.normal[o + c] = s.normal[c];
+          }
+        }
+      return std::make_pair(uint64_t(0), uint64_t(0));
+    });
+    return g;
+  }
 
  private:
   // One pixel's samples, summed in sample order (the same order for every schedule).

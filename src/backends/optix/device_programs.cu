@@ -15,10 +15,12 @@
 // core's alpha_discards(), as the CPU's Embree filter functions do. Geometry
 // without a masked material has any-hit disabled (geometry and instance flags;
 // the ray flags too when the scene has no masked material at all).
-// No shading happens outside render_sample.
+// No shading happens outside render_sample, restir's passes and the denoiser's
+// guides (render_guides_pixel), all core functions.
 #include <optix.h>
 
 #include "backends/optix/launch_params.h"
+#include "core/aov.h"
 #include "core/geometry.h"
 #include "core/integrator.h"
 #include "core/restir.h"
@@ -192,6 +194,25 @@ extern "C" __global__ void __raygen__restir_shade() {
   p.sum[pixel] = make_float4(L.x, L.y, L.z, rays);
   p.sum_sq[pixel] = make_float4(L.x * L.x, L.y * L.y, L.z * L.z, 0.f);
 }
+
+// The denoiser's guides (core/aov.h), one thread per pixel of a W x H launch;
+// at each feature level, as the strategies' programs (the backend runs the
+// scene's level: a Cornell box's guides have no GGX or texture code).
+template <uint32_t kFeatures>
+__forceinline__ __device__ void guides_pixel() {
+  const LaunchParams& p = P();
+  int x, y;
+  uint32_t pixel;
+  if (!launch_pixel(&x, &y, &pixel)) return;
+  Tracer tracer;
+  const GuideSample g = render_guides_pixel<kFeatures>(tracer, p.scene, p.camera, x, y, p.spp, p.seed);
+  p.guide_albedo[pixel] = make_float4(g.albedo.x, g.albedo.y, g.albedo.z, 0.f);
+  p.guide_normal[pixel] = make_float4(g.normal.x, g.normal.y, g.normal.z, 0.f);
+}
+
+extern "C" __global__ void __raygen__guides_basic() { guides_pixel<kFeatureLevels[kFeatureLevel_basic]>(); }
+extern "C" __global__ void __raygen__guides_textured() { guides_pixel<kFeatureLevels[kFeatureLevel_textured]>(); }
+extern "C" __global__ void __raygen__guides_full() { guides_pixel<kFeatureLevels[kFeatureLevel_full]>(); }
 
 // The trace stage's optix implementation: one ray of params.trace_rays per
 // thread, the Tracer's own queries, nothing shaded (bench --probe compares it

@@ -50,7 +50,7 @@ constexpr const char* kFeatureLevelNames[kNumFeatureLevels] = {"basic", "texture
 // Raygen programs: two per strategy, without and with MIS, in registry order;
 // then restir's spatial-reuse and shading passes (core/restir.h), one program
 // each at the full feature level (they sample nothing by strategy: the MIS
-// weight's pdf is a run-time switch there).
+// weight's pdf is a run-time switch there); then the guides' program.
 constexpr uint32_t kNumRaygens = 2 * uint32_t(kNumStrategies);
 PN_FN uint32_t raygen_index(Strategy s, Mis mis) { return 2u * uint32_t(s) + (mis == Mis::None ? 0u : 1u); }
 constexpr uint32_t kRaygenRestirSpatial = kNumRaygens;
@@ -58,7 +58,9 @@ constexpr uint32_t kRaygenRestirShade = kNumRaygens + 1;
 // The trace stage's trace-only launches (backends/trace_stage.h): rays in, hits or bits out.
 constexpr uint32_t kRaygenTraceClosest = kNumRaygens + 2;
 constexpr uint32_t kRaygenTraceShadow = kNumRaygens + 3;
-constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 4;
+// The denoiser's guides (core/aov.h): one thread per pixel, at the scene's feature level.
+constexpr uint32_t kRaygenGuides = kNumRaygens + 4;
+constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 5;
 
 struct LaunchParams {
   OptixTraversableHandle handle = 0;  // the IAS; 0 for an empty scene (every ray misses)
@@ -86,6 +88,10 @@ struct LaunchParams {
   Reservoir* restir_in = nullptr;
   Reservoir* restir_out = nullptr;
   uint32_t restir_pass = 0;
+  // The guides' launch (kRaygenGuides): each pixel's albedo and normal (xyz,
+  // w = 0) over `spp` camera rays.
+  float4* guide_albedo = nullptr;
+  float4* guide_normal = nullptr;
   // Trace-only launches (1D, trace_count threads): closest hits into trace_hits
   // (instance kTraceMiss for a miss), or blocked bits ORed into trace_bits.
   const TraceRay* trace_rays = nullptr;

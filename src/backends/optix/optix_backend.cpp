@@ -754,6 +754,44 @@ class OptixBackendImpl final : public OptixBackend {
     film.add_samples(count);
   }
 
+  // The denoiser's guides: one W x H launch of the guides' raygen program
+  // (core/aov.h), float4 images on the device, copied out as RGB floats.
+  GuideImages render_guides(const FrameSpec& frame, uint32_t samples) override {
+    use_device();
+    const int W = frame.camera.width, H = frame.camera.height;
+    if (W <= 0 || H <= 0) throw std::logic_error("frame size must be positive");
+    const size_t pixels = size_t(W) * size_t(H);
+    DeviceBuffer albedo, normal;
+    albedo.alloc(pixels * sizeof(float4), "the denoiser's albedo guide", size_);
+    normal.alloc(pixels * sizeof(float4), "the denoiser's normal guide", size_);
+    LaunchParams p = base_params_;
+    p.camera = frame.camera;
+    p.integrator = frame.integrator;
+    p.seed = frame.seed;
+    p.first_sample = 0;
+    p.spp = samples;
+    p.guide_albedo = albedo.as<float4>();
+    p.guide_normal = normal.as<float4>();
+    OptixShaderBindingTable sbt = sbt_;
+    sbt.raygenRecord = sbt_raygen_.dptr() + CUdeviceptr(optix::kRaygenGuides) * sizeof(EmptyRecord);
+    PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
+    PN_OPTIX(optixLaunch(pipeline_, stream_, params_.dptr(), sizeof(LaunchParams), &sbt, unsigned(W), unsigned(H), 1));
+    PN_CUDA(cudaStreamSynchronize(stream_));
+    std::vector<float4> a(pixels), n(pixels);
+    PN_CUDA(cudaMemcpy(a.data(), albedo.as<void>(), pixels * sizeof(float4), cudaMemcpyDeviceToHost));
+    PN_CUDA(cudaMemcpy(n.data(), normal.as<void>(), pixels * sizeof(float4), cudaMemcpyDeviceToHost));
+    GuideImages g;
+    g.width = W;
+    g.height = H;
+    g.albedo.resize(pixels * 3);
+    g.normal.resize(pixels * 3);
+    for (size_t i = 0; i < pixels; ++i) {
+      g.albedo[3 * i] = a[i].x, g.albedo[3 * i + 1] = a[i].y, g.albedo[3 * i + 2] = a[i].z;
+      g.normal[3 * i] = n[i].x, g.normal[3 * i + 1] = n[i].y, g.normal[3 * i + 2] = n[i].z;
+    }
+    return g;
+  }
+
   void tonemap(float exposure_stops) override {
     use_device();
     if (width_ <= 0) throw std::logic_error("tonemap() before any frame");
@@ -889,10 +927,12 @@ class OptixBackendImpl final : public OptixBackend {
         d.raygen.entryFunctionName = entry.c_str();
         make_group(d, &raygen_[optix::raygen_index(Strategy(i), mis)]);
       }
+    const std::string guides = std::string("__raygen__guides_") + optix::kFeatureLevelNames[feature_level_];
     for (auto [index, entry] : {std::pair<uint32_t, const char*>{optix::kRaygenRestirSpatial, "__raygen__restir_spatial"},
                                 {optix::kRaygenRestirShade, "__raygen__restir_shade"},
                                 {optix::kRaygenTraceClosest, "__raygen__trace_closest"},
-                                {optix::kRaygenTraceShadow, "__raygen__trace_shadow"}}) {
+                                {optix::kRaygenTraceShadow, "__raygen__trace_shadow"},
+                                {optix::kRaygenGuides, guides.c_str()}}) {
       d = {};
       d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
       d.raygen.module = module_;
