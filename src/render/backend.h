@@ -74,6 +74,7 @@ void note_nonfinite_pixel(RenderStats& stats, int x, int y, int width);
 // structure build times and the device memory the scene holds.
 struct SceneBuildStats {
   bool valid = false;          // false: the backend measures none of this (CPU)
+  double pipeline_ms = 0;      // compiling the device programs (cold: minutes' worth of work; cached: well under 1 s)
   uint32_t gas_count = 0;      // geometry acceleration structures (meshes + spheres)
   double gas_build_ms = 0;     // all GASes: build + compaction, host clock around synchronised calls
   double ias_build_ms = 0;     // the instance acceleration structure
