@@ -4,10 +4,11 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "render/denoise.h"
+
 #if PN_HAVE_OPTIX
 #include "backends/optix/optix_backend.h"
 #include "device_image.h"
-#include "render/denoise.h"
 #endif
 
 namespace pn::py {
