@@ -147,10 +147,12 @@ TEST(Gpus, SelectsGpusBySpecification) {
   EXPECT_EQ(select_gpus("2", 3), (std::vector<int>{0, 1}));
   EXPECT_EQ(select_gpus("2,0", 3), (std::vector<int>{2, 0}));
   EXPECT_EQ(select_gpus("1", 1), std::vector<int>{0});  // a count, not an index
+  EXPECT_EQ(select_gpus("1,", 2), std::vector<int>{1});  // a list of one: an index
+  EXPECT_EQ(select_gpus("0,", 1), std::vector<int>{0});
 }
 
 TEST(Gpus, RejectsWhatIsNotThere) {
-  for (const char* bad : {"0", "x", "1,x", ",", "1,,2", "-1", "1,1", "all,1", " 1", "99999"})
+  for (const char* bad : {"0", "x", "1,x", ",", "1,,2", "1,,", ",1", "-1", "1,1", "all,1", " 1", "99999"})
     EXPECT_THROW(check_gpus(bad), std::invalid_argument) << bad;
   EXPECT_NO_THROW(check_gpus("all"));
   EXPECT_NO_THROW(check_gpus("0,3"));

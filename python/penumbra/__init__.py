@@ -101,7 +101,7 @@ def _gpus(gpus: GpusLike) -> str:
     if isinstance(gpus, Sequence) and all(isinstance(g, int) and not isinstance(g, bool) for g in gpus):
         if not gpus:
             raise ValueError("gpus: an empty list of GPUs")
-        return ",".join(str(g) for g in gpus)
+        return ",".join(str(g) for g in gpus) + ("," if len(gpus) == 1 else "")  # "1,": GPU 1, not one GPU
     raise TypeError(f"gpus must be 'all', a number of GPUs or a list of GPU indices, not {gpus!r}")
 
 

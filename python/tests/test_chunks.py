@@ -65,7 +65,8 @@ def test_chunks_merged_in_order_are_converges_ground_truth(tmp_path):
 def test_gpus_is_checked_and_the_cpu_ignores_it():
     a = penumbra.render("cornell-sphere", spp=2, backend="cpu", gpus=3, **SMALL)
     b = penumbra.render("cornell-sphere", spp=2, backend="cpu", gpus=[0, 1], **SMALL)
-    assert np.array_equal(a.rgb, b.rgb)
+    c = penumbra.render("cornell-sphere", spp=2, backend="cpu", gpus=[0], **SMALL)  # GPU 0, not "0 GPUs"
+    assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.rgb, c.rgb)
     for bad in ("x", 0, "1,1", [], "-1"):
         with pytest.raises(ValueError, match="gpus"):
             penumbra.render("cornell-sphere", spp=1, backend="cpu", gpus=bad, **SMALL)

@@ -57,7 +57,7 @@ void add_gpus_option(CLI::App* sub, std::string* gpus) {
   *gpus = "all";
   sub->add_option("--gpus", *gpus,
                   "GPUs of the optix backend: all, a number N (the first N) or a list of CUDA device indices "
-                  "such as 0,2; the samples of every pixel are split across them in disjoint ranges (the same "
+                  "such as 0,2 (1, for GPU 1 alone); the samples of every pixel are split across them in disjoint ranges (the same "
                   "image). The cpu backend ignores it")
       ->capture_default_str()
       ->check([](const std::string& v) {

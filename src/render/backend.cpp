@@ -66,7 +66,8 @@ GpuSpec parse_gpus(const std::string& spec) {
   }
   auto bad = [&](const std::string& why) {
     return std::invalid_argument("--gpus " + spec + ": " + why +
-                                 " (expected all, a number of GPUs such as 2, or a list of GPU indices such as 0,2)");
+                                 " (expected all, a number of GPUs such as 2, or a list of GPU indices such as 0,2 "
+                                 "or 1, for GPU 1 alone)");
   };
   size_t pos = 0;
   while (true) {
@@ -75,7 +76,7 @@ GpuSpec parse_gpus(const std::string& spec) {
     if (item.empty() || item.size() > 4 || !std::all_of(item.begin(), item.end(), [](unsigned char c) { return std::isdigit(c); }))
       throw bad(item.empty() ? "an empty entry" : "'" + item + "' is not a GPU number");
     g.numbers.push_back(std::stoi(item));
-    if (end == std::string::npos) break;
+    if (end == std::string::npos || end + 1 == spec.size()) break;  // "1,": a list of one
     pos = end + 1;
   }
   g.is_count = g.numbers.size() == 1 && spec.find(',') == std::string::npos;
