@@ -140,13 +140,37 @@ Denoiser::Denoiser(int device) : impl_(std::make_unique<Impl>()) {
   PN_DN_CUDA(cudaStreamCreateWithFlags(&d.stream, cudaStreamNonBlocking), "cudaStreamCreateWithFlags");
   PN_DN_CUDA(cudaEventCreate(&d.start), "cudaEventCreate");
   PN_DN_CUDA(cudaEventCreate(&d.end), "cudaEventCreate");
+  // OptiX's errors and warnings while the denoiser is made (the reason an
+  // OPTIX_ERROR_INTERNAL_ERROR alone does not give), kept for the message.
+  std::string log;
   OptixDeviceContextOptions co = {};
+  co.logCallbackFunction = [](unsigned, const char* tag, const char* message, void* data) {
+    std::string& l = *static_cast<std::string*>(data);
+    if (l.size() < 1000) l += std::string(l.empty() ? "" : "; ") + "[" + tag + "] " + message;
+  };
+  co.logCallbackData = &log;
+  co.logCallbackLevel = 3;  // errors and warnings
   PN_DN_OPTIX(optixDeviceContextCreate(nullptr, &co, &d.context), "optixDeviceContextCreate");
   OptixDenoiserOptions o = {};
   o.guideAlbedo = 1;
   o.guideNormal = 1;
   o.denoiseAlpha = OPTIX_DENOISER_ALPHA_MODE_COPY;
-  PN_DN_OPTIX(optixDenoiserCreate(d.context, OPTIX_DENOISER_MODEL_KIND_AOV, &o, &d.denoiser), "optixDenoiserCreate");
+  const OptixResult r = optixDenoiserCreate(d.context, OPTIX_DENOISER_MODEL_KIND_AOV, &o, &d.denoiser);
+  optixDeviceContextSetLogCallback(d.context, nullptr, nullptr, 0);  // `log` ends here
+  if (r != OPTIX_SUCCESS) {
+    std::string msg = std::string("denoiser: OptiX error in optixDenoiserCreate: ") + optixGetErrorName(r) + " (" +
+                      optixGetErrorString(r) + ")";
+    for (char& c : log)
+      if (c == '\n' || c == '\r') c = ' ';
+    if (!log.empty()) msg += ": " + log;
+    // The network's weights are a file of the driver's (nvoptix.bin, beside its
+    // libraries or in /usr/share/nvidia), which containers often leave out
+    // (NVIDIA/nvidia-container-toolkit issue 127).
+    if (r == OPTIX_ERROR_INTERNAL_ERROR || log.find("weights") != std::string::npos)
+      msg += "; the driver's denoiser weights (nvoptix.bin, installed with the driver in /usr/share/nvidia) may be "
+             "missing: in a container, mount it from the host";
+    throw std::runtime_error(msg);
+  }
   d.intensity.ensure(sizeof(float), "the denoiser's intensity");
   d.average.ensure(3 * sizeof(float), "the denoiser's average colour");
 }
