@@ -229,10 +229,29 @@ void WavefrontGpu::record(uint32_t feature_level, int max_depth, void* stream_pt
   if (exec_) cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(exec_));
   if (graph_) cudaGraphDestroy(static_cast<cudaGraph_t>(graph_));
   exec_ = graph_ = nullptr;
-  const unsigned grid = unsigned(num_sms_) * 8u;
   check(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal), "cudaStreamBeginCapture");
   cudaGraph_t graph = nullptr;
   try {
+    enqueue(feature_level, max_depth, stream);
+  } catch (...) {
+    cudaStreamEndCapture(stream, &graph);
+    if (graph) cudaGraphDestroy(graph);
+    throw;
+  }
+  check(cudaStreamEndCapture(stream, &graph), "recording the wave's graph");
+  graph_ = graph;
+  cudaGraphExec_t exec = nullptr;
+  check(cudaGraphInstantiate(&exec, graph, 0), "instantiating the wave's graph");
+  exec_ = exec;
+  graph_level_ = feature_level;
+  graph_depth_ = max_depth;
+}
+
+// The launches of one wave, on `stream` (recorded by record(), or run directly).
+void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_ptr) {
+  cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
+  const unsigned grid = unsigned(num_sms_) * 8u;
+  {
     camera_kernel<<<grid, kBlock, 0, stream>>>();
     check(cudaGetLastError(), "the camera kernel");
     for (int it = 0, cur = 0; it <= max_depth; ++it, cur ^= 1) {
@@ -255,18 +274,7 @@ void WavefrontGpu::record(uint32_t feature_level, int max_depth, void* stream_pt
     }
     accumulate_kernel<<<grid, kBlock, 0, stream>>>();
     check(cudaGetLastError(), "the accumulation kernel");
-  } catch (...) {
-    cudaStreamEndCapture(stream, &graph);
-    if (graph) cudaGraphDestroy(graph);
-    throw;
   }
-  check(cudaStreamEndCapture(stream, &graph), "recording the wave's graph");
-  graph_ = graph;
-  cudaGraphExec_t exec = nullptr;
-  check(cudaGraphInstantiate(&exec, graph, 0), "instantiating the wave's graph");
-  exec_ = exec;
-  graph_level_ = feature_level;
-  graph_depth_ = max_depth;
 }
 
 void WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
@@ -275,7 +283,13 @@ void WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene,
   const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
   const uint64_t items = uint64_t(pixels) * spp;
   if (items == 0) return;
-  if (!exec_ || graph_level_ != feature_level || graph_depth_ != frame.integrator.max_depth)
+  // PENUMBRA_WAVEFRONT_GRAPH=0: launch each wave's kernels directly (to tell a graph's fault from a kernel's).
+  static const bool graph_allowed = [] {
+    const char* env = std::getenv("PENUMBRA_WAVEFRONT_GRAPH");
+    return !(env && std::string(env) == "0");
+  }();
+  const bool use_graph = graph_allowed && trace_->capturable();
+  if (use_graph && (!exec_ || graph_level_ != feature_level || graph_depth_ != frame.integrator.max_depth))
     record(feature_level, frame.integrator.max_depth, stream);
   WaveParams p;
   p.view = view_;
@@ -294,7 +308,8 @@ void WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene,
     wave.pixels = pixels;
     wave.seed = frame.seed;
     check(cudaMemcpyAsync(wave_, &wave, sizeof wave, cudaMemcpyHostToDevice, stream), "the wave's items");
-    check(cudaGraphLaunch(static_cast<cudaGraphExec_t>(exec_), stream), "cudaGraphLaunch");
+    if (use_graph) check(cudaGraphLaunch(static_cast<cudaGraphExec_t>(exec_), stream), "cudaGraphLaunch");
+    else enqueue(feature_level, frame.integrator.max_depth, stream);
   }
 }
 

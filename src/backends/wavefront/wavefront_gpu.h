@@ -35,6 +35,10 @@ class WavefrontTraceStage {
   virtual void closest(int queue, void* stream) = 0;  // ray queue `queue` -> hits; stream: a cudaStream_t
   virtual void shadow(void* stream) = 0;              // the shadow queue -> blocked bits
   virtual std::string name() const = 0;               // "optix" or "cuda"
+  // Whether closest / shadow may be recorded in a CUDA graph. optixLaunch may not: under stream capture OptiX
+  // syncs on an event of its own, which fails ("Error synching on OptixPipeline event", measured on the H200),
+  // so a wave with the optix stage launches its kernels directly.
+  virtual bool capturable() const { return true; }
 };
 
 // The cuda traversal (backends/cuda) as a wavefront's trace stage: builds and uploads the scene's BVH.
@@ -64,6 +68,7 @@ class WavefrontGpu {
 
  private:
   void record(uint32_t feature_level, int max_depth, void* stream);
+  void enqueue(uint32_t feature_level, int max_depth, void* stream);
 
   std::unique_ptr<WavefrontTraceStage> trace_;
   uint32_t capacity_ = 0;
