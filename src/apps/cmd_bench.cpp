@@ -57,7 +57,6 @@ struct BenchArgs {
   int threads = 0;
   bool wavefront = false;
   std::string traversal = "auto";
-  bool no_display = false;
   std::string json_path;
   bool probe = false;              // the trace stage alone (run_probe)
   uint32_t probe_rays = 1u << 22;  // per launch and ray kind
@@ -379,13 +378,9 @@ int run_bench(const BenchArgs& a) {
       gpu = backend_name != "cpu";
       launches = a.launches ? a.launches : (gpu ? 100 : 10);
       warmup = a.warmup >= 0 ? a.warmup : (gpu ? 10 : 1);
-      std::fprintf(stderr, "bench: %dx%d, %d spp per launch, max depth %d, %d warm-up + %d timed launches%s\n", W, H,
-                   a.spp_per_launch, a.max_depth, warmup, launches,
-                   gpu ? (a.no_display ? "" : ", accumulate + tone-map every launch") : "");
+      std::fprintf(stderr, "bench: %dx%d, %d spp per launch, max depth %d, %d warm-up + %d timed launches\n", W, H,
+                   a.spp_per_launch, a.max_depth, warmup, launches);
     }
-#if PN_HAVE_OPTIX
-    if (auto* ob = dynamic_cast<OptixBackend*>(backend.get())) ob->set_display(!a.no_display, 0.f);
-#endif
     {
       SceneBuild b;
       b.scene = scene_name;
@@ -527,9 +522,8 @@ int run_bench(const BenchArgs& a) {
                      {"max_depth", a.max_depth},
                      {"warmup_launches", warmup},
                      {"timed_launches", launches},
-                     {"tonemap_every_launch", gpu && !a.no_display},
                      {"sets", a.sets}};
-    j["timing"] = gpu ? "GPU time per launch from CUDA events: path tracing (optixLaunch) + accumulate/tone-map kernel"
+    j["timing"] = gpu ? "GPU time per launch from CUDA events: path tracing (optixLaunch) + the accumulation kernel"
                       : "wall-clock time per render() call of spp_per_launch samples";
     j["rays"] = gpu ? "exact count of optixTrace calls (path + shadow rays), summed per pixel on the device"
                     : "not counted on the CPU";
@@ -630,7 +624,6 @@ Command add_bench_command(CLI::App& app) {
   sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces")->capture_default_str()->check(CLI::Range(0, 64));
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   add_wavefront_options(sub, &a->wavefront, &a->traversal);
-  sub->add_flag("--no-tonemap", a->no_display, "GPU: time accumulation only, without the per-launch tone-map");
   sub->add_option("--json", a->json_path, "Write the results as JSON to this file");
   sub->add_flag("--probe", a->probe,
                 "The trace stage alone: random incoherent rays in each scene's bounds (closest; shadow), traced by "

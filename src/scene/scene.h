@@ -150,13 +150,34 @@ struct Scene {
   size_t triangle_count() const;
 };
 
+// Where a backend keeps the arrays a SceneView points at: host memory (the
+// CPU), device memory (the GPU). build_scene_view fills the view once for all
+// backends; the backend only says where each array goes.
+class SceneArrays {
+ public:
+  virtual ~SceneArrays() = default;
+  // The address, in the backend's memory, of a copy of `bytes` bytes at `data`
+  // (nullptr when bytes is 0). `scene_owned`: `data` is an array of the Scene,
+  // which outlives the view, so host memory may point at it without a copy.
+  virtual const void* place(const void* data, size_t bytes, size_t align, const char* what, bool scene_owned) = 0;
+  // Scene::textures[index] as the device programs read it.
+  virtual TextureView texture(const TextureImage& image, size_t index) = 0;
+};
+
+// A scene's view in one backend's memory: the SceneView, and each placed
+// mesh's arrays (by Scene::meshes index; all null for a mesh no instance
+// places), which a GPU backend's acceleration structures are built from.
+struct PlacedSceneView {
+  SceneView view;
+  std::vector<MeshView> meshes;
+};
+PlacedSceneView build_scene_view(const Scene& scene, SceneArrays& arrays);
+
 // The arrays a SceneView points at, in host memory, for a backend that traces
 // on the CPU. Lives as long as the scene it was made from, which must not move.
 struct HostSceneView {
-  std::vector<InstanceView> instances;
-  std::vector<SphereView> spheres;
-  std::vector<TextureView> textures;
   SceneView view;
+  std::vector<std::unique_ptr<unsigned char[]>> copies;  // the view's arrays that are not the scene's own
 };
 std::unique_ptr<HostSceneView> make_host_view(const Scene& scene);
 

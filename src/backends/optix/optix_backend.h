@@ -16,9 +16,10 @@
 
 namespace pn {
 
-// The progressive interface a viewer uses: accumulate on the device across
-// launches, tone-map on the device, fetch 8-bit RGBA. render() (the Backend
-// interface) is built from the same calls and adds the sums into a Film.
+// The progressive interface of GPU-resident clients (the viewer's interop path,
+// the Python module's device images): accumulate on the device across launches
+// and read the sums where they are. render() (the Backend interface) is built
+// from the same calls and adds the sums into a Film.
 class OptixBackend : public Backend {
  public:
   // Zeroes the device accumulation for a frame of the camera's size.
@@ -29,15 +30,6 @@ class OptixBackend : public Backend {
                           const ProgressFn& progress = nullptr) = 0;
   // Samples per pixel accumulated on the device since reset().
   virtual uint64_t accumulated_samples() const = 0;
-  // Also tone-map the accumulation to 8-bit sRGB RGBA after every launch (as a
-  // viewer does), with the given exposure in stops. Off by default.
-  virtual void set_display(bool enabled, float exposure_stops = 0.f) = 0;
-  // Tone-maps the accumulation now (sum / samples, x 2^exposure, sRGB, 8 bit).
-  virtual void tonemap(float exposure_stops) = 0;
-  // The RGBA8 image on the device (a CUdeviceptr / uchar4*, width*height, row 0
-  // at the top); valid after tonemap() or a launch with display on.
-  virtual const void* device_rgba8() const = 0;
-  virtual std::vector<uint8_t> download_rgba8() const = 0;
   // The device accumulation's per-pixel sums since reset(): 3 doubles a pixel
   // (RGB, row 0 at the top, laid out like Film::sum()), a CUDA device pointer;
   // complete when accumulate() returns. The viewer's interop path adds them

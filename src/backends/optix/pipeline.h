@@ -1,0 +1,50 @@
+// The OptiX backend's programs: one module compiled from the embedded OptiX-IR
+// (by OptiX's tasks, on all the host's cores), the raygen programs of every
+// strategy x MIS mode at the scene's feature level plus restir's passes, the
+// trace-only programs and the guides', the miss and hit groups, the pipeline
+// and its shader binding table. Internal to the backend.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <optix.h>
+
+#include "backends/optix/accels.h"
+#include "backends/optix/device_memory.h"
+#include "backends/optix/launch_params.h"
+#include "render/backend.h"
+
+namespace pn {
+namespace optix {
+
+class Pipeline {
+ public:
+  // Compiles and links the programs for a scene of `features` (SceneFeature
+  // bits): its raygens are those of the smallest feature level covering them.
+  // Adds the compile time to `stats`.
+  void build(OptixDeviceContext context, uint32_t features, SphereMode spheres, const SceneSize& size,
+             SceneBuildStats& stats);
+  void release();
+  OptixPipeline get() const { return pipeline_; }
+  uint32_t feature_level() const { return feature_level_; }  // index into kFeatureLevels
+  // The shader binding table whose raygen record is program `raygen`
+  // (raygen_index(strategy, mis), or kRaygenRestirSpatial, ...).
+  OptixShaderBindingTable sbt(uint32_t raygen) const;
+
+ private:
+  OptixModule create_module(const OptixModuleCompileOptions& mco, const OptixPipelineCompileOptions& pco);
+  void build_sbt(const SceneSize& size);
+
+  OptixDeviceContext context_ = nullptr;
+  uint32_t feature_level_ = kNumFeatureLevels - 1;
+  OptixModule module_ = nullptr, sphere_is_module_ = nullptr;
+  std::vector<OptixProgramGroup> raygen_;  // by raygen_index(strategy, mis), then restir's passes, ...
+  OptixProgramGroup miss_[kNumMissPrograms] = {}, hit_[kNumHitGroups] = {};
+  OptixPipeline pipeline_ = nullptr;
+  OptixShaderBindingTable sbt_ = {};
+  DeviceBuffer sbt_raygen_, sbt_miss_, sbt_hit_;
+};
+
+}  // namespace optix
+}  // namespace pn
