@@ -106,6 +106,21 @@ PN_FN WatertightRay make_watertight_ray(const Ray& ray) {
   return r;
 }
 
+// a * b - c * d such that swapping the pairs negates the result exactly, which
+// the edge functions of two triangles that share an edge need (watertightness).
+// A compiler that contracts the plain expression into fma(a, b, -c * d) breaks
+// that: nvcc does by default (--fmad=true), and the cuda traversal then let a
+// closed box leak light (gpu_check, H200). On the GPU the intrinsics are never
+// contracted; on the host the products are exact in double, so contraction
+// there changes nothing.
+PN_FN float diff_of_products(float a, float b, float c, float d) {
+#if defined(__CUDA_ARCH__)
+  return __fsub_rn(__fmul_rn(a, b), __fmul_rn(c, d));
+#else
+  return float(double(a) * double(b) - double(c) * double(d));
+#endif
+}
+
 // The hit's t in (tmin, tmax) and, where asked for, its barycentrics b1, b2 (of
 // p1 and p2, as Embree's u, v and OptiX's triangle barycentrics).
 PN_FN bool intersect_triangle(const WatertightRay& r, Vec3 p0, Vec3 p1, Vec3 p2, float tmin, float tmax,
@@ -116,7 +131,8 @@ PN_FN bool intersect_triangle(const WatertightRay& r, Vec3 p0, Vec3 p1, Vec3 p2,
   const float b_x = b[r.kx] - r.sx * b[r.kz], b_y = b[r.ky] - r.sy * b[r.kz];
   const float c_x = c[r.kx] - r.sx * c[r.kz], c_y = c[r.ky] - r.sy * c[r.kz];
   // Edge functions: u of edge (b, c), v of (c, a), w of (a, b): the weights of a, b, c.
-  float u = c_x * b_y - c_y * b_x, v = a_x * c_y - a_y * c_x, w = b_x * a_y - b_y * a_x;
+  float u = diff_of_products(c_x, b_y, c_y, b_x), v = diff_of_products(a_x, c_y, a_y, c_x),
+        w = diff_of_products(b_x, a_y, b_y, a_x);
   if (u == 0.f || v == 0.f || w == 0.f) {
     u = float(double(c_x) * double(b_y) - double(c_y) * double(b_x));
     v = float(double(a_x) * double(c_y) - double(a_y) * double(c_x));
