@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Proof that the wavefront GPU path tracer (--wavefront, backends/wavefront) computes the megakernel's and the
+# Proof that the wavefront GPU path tracer (the default; backends/wavefront) computes the megakernel's (--megakernel) and the
 # CPU's images, with both trace stages (--traversal optix|cuda), without memory errors, and how fast it is.
 # Needs an NVIDIA GPU (cannot run in CI); backends/optix/WAVEFRONT.md says what to look at.
 #
@@ -87,7 +87,7 @@ for scene in $check_scenes; do
     if ! render "${n}_cpu" "$scene" "$strategy" "$mis" 0 --backend cpu "${extra[@]}"; then
       record "$n: cpu render" 1; continue
     fi
-    if ! render "${n}_mega" "$scene" "$strategy" "$mis" 0 --backend optix "${extra[@]}"; then
+    if ! render "${n}_mega" "$scene" "$strategy" "$mis" 0 --backend optix --megakernel "${extra[@]}"; then
       record "$n: megakernel render" 1; continue
     fi
     ok=1
@@ -156,6 +156,7 @@ if [[ ${WAVEFRONT_CHECK_BENCH:-1} != 0 ]]; then
   for mode in mega wf_optix wf_cuda; do
     args=()
     case $mode in
+      mega) args=(--megakernel) ;;
       wf_optix) args=(--wavefront --traversal optix) ;;
       wf_cuda) args=(--wavefront --traversal cuda) ;;
     esac

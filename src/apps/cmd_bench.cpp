@@ -55,7 +55,7 @@ struct BenchArgs {
   int spp_per_launch = 1;
   int max_depth = 8;
   int threads = 0;
-  bool wavefront = false;
+  bool wavefront = true;  // GPU: the wavefront; --megakernel: false
   std::string traversal = "auto";
   std::string json_path;
   bool probe = false;              // the trace stage alone (run_probe)

@@ -27,7 +27,7 @@ struct RenderArgs {
   std::string variance;
   std::string backend = "auto";
   std::string gpus;
-  bool wavefront = false;
+  bool wavefront = true;  // GPU: the wavefront; --megakernel: false
   std::string traversal = "auto";
   IntegratorOptions integrator;
   // kUnset: not given on the command line, keep the scene's value.

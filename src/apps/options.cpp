@@ -41,11 +41,15 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
 }
 
 void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal) {
+  *wavefront = true;
   *traversal = "auto";
-  sub->add_flag("--wavefront", *wavefront,
-                "GPU, EXPERIMENTAL (not yet run on a GPU: scripts/wavefront_check.sh is its proof): the wavefront "
-                "path tracer (kernels per stage over a pool of paths, one CUDA graph a wave) instead of the "
-                "megakernel; restir with spatial reuse keeps its passes. The cpu backend ignores it");
+  auto* wf = sub->add_flag("--wavefront", *wavefront,
+                           "GPU: the wavefront path tracer (kernels per stage over a pool of paths), the default; "
+                           "restir with spatial reuse keeps its passes. The cpu backend ignores it");
+  sub->add_flag_callback(
+         "--megakernel", [wavefront]() { *wavefront = false; },
+         "GPU: the megakernel (the whole path loop in one OptiX raygen program) instead of the wavefront")
+      ->excludes(wf);
   sub->add_option("--traversal", *traversal,
                   "GPU wavefront's trace stage: optix (trace-only OptiX launches), cuda (penumbra's BVH2 "
                   "traversal) or auto (optix where the GPU has RT cores, else cuda; one line says which)")

@@ -134,10 +134,11 @@ struct BackendOptions {
   // (MultiBackend). "": GPU 0 alone (the viewer, bench).
   std::string gpus = "";
   int device = 0;  // GPU: the CUDA device of a single-GPU backend (make_optix_backend)
-  // GPU: the wavefront path tracer (backends/wavefront, --wavefront) instead of the megakernel, and its trace
-  // stage (--traversal): "optix" (trace-only OptiX launches), "cuda" (backends/cuda) or "auto" (OptiX where the
-  // GPU has RT cores, OPTIX_DEVICE_PROPERTY_RTCORE_VERSION > 0, else cuda).
-  bool wavefront = false;
+  // GPU: the wavefront path tracer (backends/wavefront; the default: on the H200 1.8x the megakernel's speed with
+  // the cuda trace stage, and the same images, scripts/wavefront_check.sh) or the megakernel (--megakernel), and
+  // the wavefront's trace stage (--traversal): "optix" (trace-only OptiX launches), "cuda" (backends/cuda) or
+  // "auto" (OptiX where the GPU has RT cores, OPTIX_DEVICE_PROPERTY_RTCORE_VERSION > 0, else cuda).
+  bool wavefront = true;
   std::string traversal = "auto";
 };
 

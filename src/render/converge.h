@@ -36,7 +36,7 @@ struct ConvergeOptions {
   int max_spp = 1024, seeds = 4, reference_spp = 65536, crop_spp = 32, fit_min_spp = 4;
   int reference_chunk = 4096;  // samples per pixel of each chunk of the ground truth
   int threads = 0;
-  bool wavefront = false;          // GPU: --wavefront (BackendOptions::wavefront)
+  bool wavefront = true;           // GPU: the wavefront (BackendOptions::wavefront); --megakernel: false
   std::string traversal = "auto";  // GPU: --traversal
   double threshold = 0.05;
   std::vector<int> crop;  // x, y, w, h; empty: around the light

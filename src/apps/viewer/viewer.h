@@ -18,7 +18,7 @@ struct ViewerOptions {
   int spp_per_frame = 1;
   float exposure = 0.f;
   int threads = 0;                  // CPU backend threads; 0 = all
-  bool wavefront = false;           // GPU: --wavefront
+  bool wavefront = true;            // GPU: the wavefront; --megakernel: false
   std::string traversal = "auto";   // GPU: --traversal
   std::string split;                // "LEFT,RIGHT": start in split-screen mode
   bool equal_time = false;
