@@ -108,6 +108,8 @@ const Case kCases[] = {
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.unbiased=false",
                       "render.mis=none"}},
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.temporal=true",
+                      "render.restir.spatial_passes=1"}},
 };
 
 std::string case_name(const ::testing::TestParamInfo<Case>& info) {

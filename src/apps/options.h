@@ -19,6 +19,8 @@ struct IntegratorOptions {
   double restir_radius = -std::numeric_limits<double>::infinity();
   std::string restir_source;
   bool restir_biased = false;
+  bool restir_temporal = false;
+  double restir_temporal_cap = -std::numeric_limits<double>::infinity();  // unset
 };
 
 void add_integrator_options(CLI::App* sub, IntegratorOptions* o);

@@ -70,7 +70,9 @@ constexpr float kMinInfiniteProbability = 0.1f;
 // of every camera path, `candidates` light samples drawn by `source` and the
 // strategy are resampled by their unshadowed contribution (RIS, Talbot 2005);
 // then `spatial_passes` passes each combine every pixel's reservoir with those
-// of `neighbors` random pixels within `radius` pixels. Unbiased by default;
+// of `neighbors` random pixels within `radius` pixels; with `temporal`, first
+// with the same pixel's final reservoir of the previous sample (its M capped at
+// `temporal_cap` times the new one's). Unbiased by default;
 // `unbiased = 0` is the paper's biased combination (cheaper, darker where
 // neighbours see different lights), labelled as such wherever it is reported.
 struct RestirSettings {
@@ -80,6 +82,8 @@ struct RestirSettings {
   float radius = 30.f;
   uint32_t unbiased = 1;
   LightSelection source = LightSelection::Power;
+  uint32_t temporal = 0;      // 1: temporal reuse between successive samples of a static camera
+  float temporal_cap = 20.f;  // the history's M at most this times the new reservoir's
 };
 constexpr uint32_t kMaxRestirCandidates = 4096;
 constexpr uint32_t kMaxRestirPasses = 16;

@@ -6,10 +6,18 @@
 //      functions with a RestirPrimaryOut): its first vertex's M candidates
 //      resampled into a reservoir (reservoir_before_visibility, W set by its
 //      shadow query), the rest of the path's radiance kept aside;
-//   2. spatial (spatial_passes times): every pixel combines its reservoir with
+//   2. temporal (with `temporal`): every pixel combines its reservoir with the
+//      final one of the same pixel at the previous sample, its confidence M
+//      capped at temporal_cap times the new one's (restir_temporal_reuse). The
+//      camera is static between samples (a progressive render, the viewer
+//      until the view changes), so the history is the same pixel's, no motion
+//      vectors; a render call starts without history (the viewer keeps it
+//      across frames until it resets the image);
+//   3. spatial (spatial_passes times): every pixel combines its reservoir with
 //      those of k random neighbours within the radius (restir_spatial_reuse);
-//   3. shade: every pixel's direct light from its final reservoir, weighted by
-//      MIS against the BSDF sample that the path took (restir_shade).
+//   4. shade: every pixel's direct light from its final reservoir, weighted by
+//      MIS against the BSDF sample that the path took (restir_shade), which
+//      becomes the next sample's history.
 // The CPU backend runs them with threads over tiles, the OptiX backend as
 // launches of their own raygen programs; both call these functions.
 //
@@ -52,16 +60,72 @@
 
 namespace pn {
 
-// Whether a frame needs the passes: restir with spatial reuse (without it,
-// render_sample resamples each path's first vertex on its own).
+// Whether a frame needs the passes: restir with spatial or temporal reuse
+// (without them, render_sample resamples each path's first vertex on its own).
 PN_FN bool restir_frame_passes(const IntegratorSettings& s) {
-  return s.light_selection == LightSelection::Restir && s.restir.spatial_passes > 0 && strategy_uses_nee(s.strategy);
+  return s.light_selection == LightSelection::Restir && (s.restir.spatial_passes > 0 || s.restir.temporal != 0) &&
+         strategy_uses_nee(s.strategy);
 }
+
+// The pass number of temporal reuse in Rng::for_pass (after every spatial one).
+constexpr uint32_t kRestirTemporalPass = kMaxRestirPasses;
 
 // Neighbour similarity (Bitterli et al. 2020): normals within 25 degrees and
 // depths within 10%.
 PN_FN bool restir_similar(const RestirPixel& q, const RestirPixel& n) {
   return dot(q.bsdf.frame.n, n.bsdf.frame.n) >= 0.906307787f && std::fabs(n.t - q.t) <= 0.1f * q.t;
+}
+
+// Combines n reservoirs: in[i] holds a sample found at pixel at[i]; at[0] and
+// in[0] are q's own, where the result is used (see the top of this file).
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
+PN_HD Reservoir restir_combine(const Tracer& tracer, const SceneView& scene, bool unbiased,
+                               const RestirPixel* const* at, const Reservoir* const* in, uint32_t n, Rng& rng) {
+  const RestirPixel& q = *at[0];
+  Reservoir r;
+  float M = 0.f;
+  for (uint32_t i = 0; i < n; ++i) M += in[i]->M;
+  r.M = M;
+  if (unbiased) {
+    // The generalized balance heuristic (Talbot; Lin et al. 2022, GRIS): reservoir i's sample y_i enters with
+    // m_i(y_i) p_hat_q(y_i) W_i, where m_i(y) = M_i p_hat_i(y) / sum_j M_j p_hat_j(y) and every target is the
+    // shadowed one at its own pixel; then W = (sum of weights) / p_hat_q(y). Unlike 1/Z, the weight is bounded
+    // (m_i p_hat_q W_i <= M_i p_hat_i W_i p_hat_q / (M_q p_hat_q) = w_sum_i / M_q): a sample whose own target
+    // was small (a point near a sphere light's silhouette, drawn by its cone) cannot become a firefly where
+    // another pixel's target is large. n^2 - n targets and shadow rays per pixel and pass.
+    for (uint32_t i = 0; i < n; ++i) {
+      const Reservoir& ri = *in[i];
+      if (!(ri.W > 0.f)) continue;
+      float p_q = 0.f, num = 0.f, den = 0.f;
+      for (uint32_t j = 0; j < n; ++j) {
+        float p_j;
+        if (j == i) {
+          p_j = ri.p_hat;  // its own target; visible, as W > 0
+        } else {
+          const RestirPixel& pj = *at[j];
+          const TargetEval t = restir_target<kFeatures>(scene, pj.bsdf, pj.p, pj.wo, ri.s);
+          p_j = t.p_hat;
+          if (p_j > 0.f && !light_visible(tracer, pj.p, pj.bsdf.ng, t.wi, ri.s.y, ri.s.infinite != 0)) p_j = 0.f;
+        }
+        if (j == 0) p_q = p_j;
+        if (j == i) num = in[j]->M * p_j;
+        den += in[j]->M * p_j;
+      }
+      if (!(num > 0.f) || !(p_q > 0.f)) continue;
+      if (r.update(ri.s, num / den * p_q * ri.W, rng.uniform())) r.p_hat = p_q;
+    }
+    if (r.w_sum > 0.f) r.W = r.w_sum / r.p_hat;
+    return r;
+  }
+  // Biased: the paper's combination with unshadowed targets at q and Z = the sum of all M_i.
+  for (uint32_t i = 0; i < n; ++i) {
+    const Reservoir& ri = *in[i];
+    if (!(ri.W > 0.f)) continue;
+    const float p_hat = i == 0 ? ri.p_hat : restir_target<kFeatures>(scene, q.bsdf, q.p, q.wo, ri.s).p_hat;
+    if (r.update(ri.s, p_hat * ri.W * ri.M, rng.uniform())) r.p_hat = p_hat;
+  }
+  if (r.w_sum > 0.f) r.W = r.w_sum / (M * r.p_hat);
+  return r;
 }
 
 // Pass `pass` of spatial reuse at pixel (px, py) of a width x height frame:
@@ -73,7 +137,6 @@ PN_HD Reservoir restir_spatial_reuse(const Tracer& tracer, const SceneView& scen
   const uint32_t qi = uint32_t(py) * uint32_t(width) + uint32_t(px);
   const RestirPixel& q = pixels[qi];
   if (!q.valid) return in[qi];
-  const bool unbiased = rs.unbiased != 0;
   Rng rng = Rng::for_pass(qi, sample_index, seed, pass);
   // The reservoirs combined: q's own first, then the neighbours found.
   uint32_t idx[kMaxRestirNeighbors + 1];
@@ -87,50 +150,32 @@ PN_HD Reservoir restir_spatial_reuse(const Tracer& tracer, const SceneView& scen
     const uint32_t j = uint32_t(y) * uint32_t(width) + uint32_t(x);
     if (pixels[j].valid && restir_similar(q, pixels[j])) idx[n++] = j;
   }
-  Reservoir r;
-  float M = 0.f;
-  for (uint32_t i = 0; i < n; ++i) M += in[idx[i]].M;
-  r.M = M;
-  if (unbiased) {
-    // The generalized balance heuristic (Talbot; Lin et al. 2022, GRIS): reservoir i's sample y_i enters with
-    // m_i(y_i) p_hat_q(y_i) W_i, where m_i(y) = M_i p_hat_i(y) / sum_j M_j p_hat_j(y) and every target is the
-    // shadowed one at its own pixel; then W = (sum of weights) / p_hat_q(y). Unlike 1/Z, the weight is bounded
-    // (m_i p_hat_q W_i <= M_i p_hat_i W_i p_hat_q / (M_q p_hat_q) = w_sum_i / M_q): a sample whose own target
-    // was small (a point near a sphere light's silhouette, drawn by its cone) cannot become a firefly where
-    // another pixel's target is large. n^2 - n targets and shadow rays per pixel and pass.
-    for (uint32_t i = 0; i < n; ++i) {
-      const Reservoir& ri = in[idx[i]];
-      if (!(ri.W > 0.f)) continue;
-      float p_q = 0.f, num = 0.f, den = 0.f;
-      for (uint32_t j = 0; j < n; ++j) {
-        float p_j;
-        if (j == i) {
-          p_j = ri.p_hat;  // its own target; visible, as W > 0
-        } else {
-          const RestirPixel& pj = pixels[idx[j]];
-          const TargetEval t = restir_target<kFeatures>(scene, pj.bsdf, pj.p, pj.wo, ri.s);
-          p_j = t.p_hat;
-          if (p_j > 0.f && !light_visible(tracer, pj.p, pj.bsdf.ng, t.wi, ri.s.y, ri.s.infinite != 0)) p_j = 0.f;
-        }
-        if (j == 0) p_q = p_j;
-        if (j == i) num = in[idx[j]].M * p_j;
-        den += in[idx[j]].M * p_j;
-      }
-      if (!(num > 0.f) || !(p_q > 0.f)) continue;
-      if (r.update(ri.s, num / den * p_q * ri.W, rng.uniform())) r.p_hat = p_q;
-    }
-    if (r.w_sum > 0.f) r.W = r.w_sum / r.p_hat;
-    return r;
-  }
-  // Biased: the paper's combination with unshadowed targets at q and Z = the sum of all M_i.
-  for (uint32_t i = 0; i < n; ++i) {
-    const Reservoir& ri = in[idx[i]];
-    if (!(ri.W > 0.f)) continue;
-    const float p_hat = i == 0 ? ri.p_hat : restir_target<kFeatures>(scene, q.bsdf, q.p, q.wo, ri.s).p_hat;
-    if (r.update(ri.s, p_hat * ri.W * ri.M, rng.uniform())) r.p_hat = p_hat;
-  }
-  if (r.w_sum > 0.f) r.W = r.w_sum / (M * r.p_hat);
-  return r;
+  const RestirPixel* at[kMaxRestirNeighbors + 1];
+  const Reservoir* res[kMaxRestirNeighbors + 1];
+  for (uint32_t i = 0; i < n; ++i) at[i] = &pixels[idx[i]], res[i] = &in[idx[i]];
+  return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, n, rng);
+}
+
+// Temporal reuse at pixel `pixel_index`: q's reservoir `current` (from the
+// primary pass) combined with `history`, the final reservoir of the same pixel
+// at the previous sample, found at `history_pixel`. The history's M is capped
+// at temporal_cap x current.M (Bitterli et al. 2020 use 20), so that an old
+// sample cannot dominate for ever; the generalized balance heuristic stays an
+// exact MIS weight for any M, so the cap costs no bias. No history (the first
+// sample) or a dissimilar one (another surface under the pixel's jitter):
+// `current` as it is.
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
+PN_HD Reservoir restir_temporal_reuse(const Tracer& tracer, const SceneView& scene, const RestirSettings& rs,
+                                      const RestirPixel& q, const Reservoir& current, const RestirPixel& history_pixel,
+                                      const Reservoir& history, uint32_t pixel_index, uint32_t sample_index,
+                                      uint32_t seed) {
+  if (!q.valid || !history_pixel.valid || !(history.M > 0.f) || !restir_similar(q, history_pixel)) return current;
+  Reservoir h = history;
+  h.M = pn_min(h.M, rs.temporal_cap * pn_max(current.M, 1.f));
+  Rng rng = Rng::for_pass(pixel_index, sample_index, seed, kRestirTemporalPass);
+  const RestirPixel* at[2] = {&q, &history_pixel};
+  const Reservoir* res[2] = {&current, &h};
+  return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, 2, rng);
 }
 
 // Pass 3: the direct light of q's first vertex from its reservoir, weighted by

@@ -110,19 +110,24 @@ void parse_camera(const Node& n, Scene& s) {
   }
 }
 
-// "restir": {"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "source"}
-// (core/light_selection.h, RestirSettings).
+// "restir": {"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "source", "temporal",
+// "temporal_cap"} (core/light_selection.h, RestirSettings).
 void parse_restir(const Node& n, RestirSettings* r) {
-  n.expect_object({"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "source"});
+  n.expect_object(
+      {"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "source", "temporal", "temporal_cap"});
   if (n.has("candidates")) r->candidates = uint32_t(n.at("candidates").integer(1, long(kMaxRestirCandidates)));
   if (n.has("spatial_passes")) r->spatial_passes = uint32_t(n.at("spatial_passes").integer(0, long(kMaxRestirPasses)));
   if (n.has("neighbors")) r->neighbors = uint32_t(n.at("neighbors").integer(1, long(kMaxRestirNeighbors)));
   if (n.has("radius")) r->radius = n.at("radius").real(1.0, 4096.0);
-  if (n.has("unbiased")) {
-    Node u = n.at("unbiased");
+  auto flag = [&](const char* key, uint32_t* out) {
+    if (!n.has(key)) return;
+    Node u = n.at(key);
     if (!u.j.is_boolean()) u.fail("expected true or false, got " + u.j.dump());
-    r->unbiased = u.j.get<bool>() ? 1u : 0u;
-  }
+    *out = u.j.get<bool>() ? 1u : 0u;
+  };
+  flag("unbiased", &r->unbiased);
+  flag("temporal", &r->temporal);
+  if (n.has("temporal_cap")) r->temporal_cap = n.at("temporal_cap").real(1.0, 1000.0);
   if (n.has("source")) {
     Node src = n.at("source");
     LightSelection m;
@@ -611,6 +616,11 @@ std::string light_selection_label(LightSelection method, const RestirSettings& r
     std::snprintf(radius, sizeof radius, "%g", double(r.radius));
     s += ", " + std::to_string(r.spatial_passes) + " spatial pass" + (r.spatial_passes > 1 ? "es" : "") + " of " +
          std::to_string(r.neighbors) + " neighbour" + (r.neighbors > 1 ? "s" : "") + " within " + radius + " px";
+  }
+  if (r.temporal) {
+    char cap[32];
+    std::snprintf(cap, sizeof cap, "%g", double(r.temporal_cap));
+    s += std::string(", temporal reuse (history M <= ") + cap + " x)";
   }
   return s + (r.unbiased ? ", unbiased)" : ", BIASED)");
 }

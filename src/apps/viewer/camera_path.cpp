@@ -114,7 +114,7 @@ const std::map<std::string, Check>& checks() {
       {"reset", boolean(true)},       {"fov", number_in(1, 170)},
       {"fly", boolean()},             {"fly_speed", number_in(0, 1e9, true)},
       {"strategy", strategy()},       {"mis", mis()},
-      {"light_selection", light_selection()},
+      {"light_selection", light_selection()}, {"restir_temporal", boolean()},
       {"spp_per_frame", integer_in(1, 4096)},
       {"max_depth", integer_in(0, 1000)},
       {"exposure", number_in(-64, 64)}, {"scale", number_in(0.05, 4)},

@@ -69,6 +69,7 @@ struct ImageSettings {
   Strategy strategy = Strategy::SolidAngle;
   Mis mis = Mis::Power;
   LightSelection selection = LightSelection::Power;
+  bool restir_temporal = false;  // restir: temporal reuse between frames (history kept until the image restarts)
   int max_depth = 0;
   int width = 0, height = 0;
   bool split = false;  // the divider is not here: it only chooses which image each column shows
@@ -78,7 +79,7 @@ struct ImageSettings {
 
   bool operator==(const ImageSettings& o) const {
     return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && selection == o.selection &&
-           max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
+           restir_temporal == o.restir_temporal && max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
            right == o.right && equal_time == o.equal_time && scene_overrides == o.scene_overrides;
   }
 };
@@ -193,6 +194,7 @@ class Viewer {
   Strategy strategy_ = Strategy::SolidAngle;
   Mis mis_ = Mis::Power;
   LightSelection selection_ = LightSelection::Power;
+  bool restir_temporal_ = false;
   int max_depth_ = 8;
   int spp_per_frame_ = 1;
   float exposure_ = 0.f;
@@ -250,6 +252,7 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   strategy_ = scene_->render.strategy;
   mis_ = scene_->render.mis;
   selection_ = scene_->render.light_selection;
+  restir_temporal_ = scene_->render.restir.temporal != 0;
   max_depth_ = scene_->render.max_depth;
   spp_per_frame_ = opt_.spp_per_frame;
   exposure_ = opt_.exposure;
@@ -387,6 +390,7 @@ ImageSettings Viewer::wanted() const {
   s.strategy = strategy_;
   s.mis = mis_;
   s.selection = selection_;
+  s.restir_temporal = selection_ == LightSelection::Restir && restir_temporal_;
   s.max_depth = max_depth_;
   int fw = 0, fh = 0;
   glfwGetFramebufferSize(window_, &fw, &fh);
@@ -443,6 +447,7 @@ void Viewer::restart(const ImageSettings& s) {
   base.integrator.max_depth = s.max_depth;
   base.integrator.mis = s.mis;
   base.integrator.light_selection = s.selection;
+  base.integrator.restir.temporal = s.restir_temporal ? 1u : 0u;
   try {
     display_->resize(s.width, s.height);
   } catch (const std::exception& e) {  // registering the new size's pixel buffer with CUDA failed
@@ -596,6 +601,7 @@ void Viewer::save_camera_file(const std::string& path) {
   overrides.push_back("render.strategy=\"" + std::string(strategy_name(strategy_)) + "\"");
   overrides.push_back("render.mis=\"" + std::string(mis_name(mis_)) + "\"");
   overrides.push_back("render.light_selection=\"" + std::string(light_selection_name(selection_)) + "\"");
+  overrides.push_back(std::string("render.restir.temporal=") + (restir_temporal_ ? "true" : "false"));
   overrides.push_back("render.max_depth=" + std::to_string(max_depth_));
   std::string source;
   nlohmann::json doc = load_scene_json(opt_.scene, overrides, &source);
@@ -734,10 +740,14 @@ void Viewer::draw_panel() {
   if (!split_) strategy_combo("strategy", &strategy_);
   enum_combo("MIS", &mis_, kNumMisModes, mis_name);
   // How the light of each sample is chosen (restir with the scene's
-  // render.restir settings; spatial reuse, no temporal reuse yet).
+  // render.restir settings; temporal reuse between frames as the panel says).
   enum_combo("light selection", &selection_, kNumLightSelections, light_selection_name);
-  if (selection_ == LightSelection::Restir)
-    ImGui::TextDisabled("%s", light_selection_label(selection_, scene_->render.restir).c_str());
+  if (selection_ == LightSelection::Restir) {
+    ImGui::Checkbox("temporal reuse", &restir_temporal_);
+    RestirSettings r = scene_->render.restir;
+    r.temporal = restir_temporal_ ? 1u : 0u;
+    ImGui::TextDisabled("%s", light_selection_label(selection_, r).c_str());
+  }
   ImGui::TextDisabled("%zu lights", scene_->lights.size());
   ImGui::SliderInt("spp / frame", &spp_per_frame_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
   ImGui::SliderInt("max depth", &max_depth_, 0, 32);
@@ -880,6 +890,7 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "strategy") strategy_ = strategy();
   else if (k == "mis") mis_ = parse_mis(v.get<std::string>(), a.where);
   else if (k == "light_selection") selection_ = parse_light_selection(v.get<std::string>(), a.where);
+  else if (k == "restir_temporal") restir_temporal_ = v.get<bool>();
   else if (k == "spp_per_frame") spp_per_frame_ = v.get<int>();
   else if (k == "max_depth") max_depth_ = v.get<int>();
   else if (k == "exposure") exposure_ = v.get<float>();

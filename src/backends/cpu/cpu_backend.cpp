@@ -541,18 +541,23 @@ class CpuBackend final : public Backend {
     note_nonfinite_pixel(stats_, x, y, W);
   }
 
-  // restir with spatial reuse (core/restir.h): per camera sample, the primary
-  // pass over every pixel, the spatial passes (reading one reservoir buffer,
-  // writing the other), then shading and accumulation; all as phases of one
+  // restir with spatial or temporal reuse (core/restir.h): per camera sample,
+  // the primary pass over every pixel, temporal reuse with the previous
+  // sample's final reservoirs (its history; none for the call's first), the
+  // spatial passes (reading one reservoir buffer, writing the other), then
+  // shading and accumulation, which keep the history; all as phases of one
   // pool of threads.
   void render_restir(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
                      const ProgressFn& progress) {
     const int W = frame.camera.width, H = frame.camera.height;
     const size_t pixels = size_t(W) * H;
     const IntegratorSettings& s = frame.integrator;
-    const uint32_t passes = s.restir.spatial_passes, phases_per_sample = passes + 2;
+    const uint32_t temporal = s.restir.temporal ? 1u : 0u;
+    const uint32_t passes = s.restir.spatial_passes, phases_per_sample = temporal + passes + 2;
     std::vector<RestirPixel> gbuffer(pixels);
     std::vector<Reservoir> reservoirs[2] = {std::vector<Reservoir>(pixels), std::vector<Reservoir>(pixels)};
+    std::vector<RestirPixel> history_pixels(temporal ? pixels : 0);  // valid = 0: no history yet
+    std::vector<Reservoir> history(temporal ? pixels : 0);
     const uint64_t total = uint64_t(pixels) * count;
     std::atomic<uint64_t> done{0};
     Tracer tracer{this};
@@ -582,20 +587,26 @@ class CpuBackend final : public Backend {
           }
         return std::make_pair(uint64_t(0), uint64_t(0));
       }
-      if (step <= passes) {  // spatial pass step - 1: reservoirs[(step - 1) % 2] -> reservoirs[step % 2]
+      if (step <= temporal + passes) {  // reuse step - 1 (temporal first): reservoirs[(step - 1) % 2] -> [step % 2]
         const Reservoir* in = reservoirs[(step - 1) % 2].data();
         Reservoir* out = reservoirs[step % 2].data();
         for (int y = y0; y < y1; ++y)
-          for (int x = x0; x < x1; ++x)
-            out[size_t(y) * W + x] = restir_spatial_reuse(tracer, view_, s.restir, gbuffer.data(), in, W, H, x, y,
-                                                          sample, frame.seed, step - 1);
+          for (int x = x0; x < x1; ++x) {
+            const size_t p = size_t(y) * W + x;
+            out[p] = temporal && step == 1
+                         ? restir_temporal_reuse(tracer, view_, s.restir, gbuffer[p], in[p], history_pixels[p],
+                                                 history[p], uint32_t(p), sample, frame.seed)
+                         : restir_spatial_reuse(tracer, view_, s.restir, gbuffer.data(), in, W, H, x, y, sample,
+                                                frame.seed, step - 1 - temporal);
+          }
         return std::make_pair(uint64_t(0), uint64_t(0));
       }
-      const Reservoir* final_reservoirs = reservoirs[passes % 2].data();  // shading
+      const Reservoir* final_reservoirs = reservoirs[(temporal + passes) % 2].data();  // shading
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
           const size_t p = size_t(y) * W + x;
           const Vec3 L = gbuffer[p].L + restir_shade(tracer, view_, s, gbuffer[p], final_reservoirs[p]);
+          if (temporal) history_pixels[p] = gbuffer[p], history[p] = final_reservoirs[p];
           if (!is_finite(L)) {
             note_nonfinite(x, y, W, 1);
             continue;

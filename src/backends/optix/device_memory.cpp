@@ -53,7 +53,9 @@ DeviceEstimate estimate_device_memory(const Scene& scene) {
   e.frame = uint64_t(e.width) * uint64_t(e.height) * 84;
   // restir's frame passes: a shading point and two reservoirs a pixel.
   if (restir_frame_passes(scene.integrator()))
-    e.frame += uint64_t(e.width) * uint64_t(e.height) * (sizeof(RestirPixel) + 2 * sizeof(Reservoir));
+    e.frame += uint64_t(e.width) * uint64_t(e.height) *
+               (sizeof(RestirPixel) + 2 * sizeof(Reservoir) +
+                (scene.integrator().restir.temporal ? sizeof(RestirPixel) + sizeof(Reservoir) : 0));  // history
   e.fixed = uint64_t(64) << 20;  // module, program groups, SBT, stacks, launch parameters
   return e;
 }

@@ -154,7 +154,7 @@ PN_STRATEGIES(PN_X)
 #undef PN_X
 #undef PN_RAYGEN
 
-// restir's spatial reuse and shading passes (core/restir.h), one thread per
+// restir's reuse (temporal, spatial) and shading passes (core/restir.h), one thread per
 // pixel of a W x H launch, every scene feature compiled in. The launch index
 // as a pixel: false outside the image.
 __forceinline__ __device__ bool launch_pixel(int* x, int* y, uint32_t* pixel) {
@@ -171,9 +171,14 @@ extern "C" __global__ void __raygen__restir_spatial() {
   uint32_t pixel;
   if (!launch_pixel(&x, &y, &pixel)) return;
   Tracer tracer;
-  p.restir_out[pixel] = restir_spatial_reuse<kAllFeatures>(tracer, p.scene, p.integrator.restir, p.restir_pixels,
-                                                           p.restir_in, p.camera.width, p.camera.height, x, y,
-                                                           p.first_sample, p.seed, p.restir_pass);
+  if (p.restir_pass == kRestirTemporalPass)  // the same pixel's history (restir_history*)
+    p.restir_out[pixel] = restir_temporal_reuse<kAllFeatures>(
+        tracer, p.scene, p.integrator.restir, p.restir_pixels[pixel], p.restir_in[pixel],
+        p.restir_history_pixels[pixel], p.restir_history[pixel], pixel, p.first_sample, p.seed);
+  else
+    p.restir_out[pixel] = restir_spatial_reuse<kAllFeatures>(tracer, p.scene, p.integrator.restir, p.restir_pixels,
+                                                             p.restir_in, p.camera.width, p.camera.height, x, y,
+                                                             p.first_sample, p.seed, p.restir_pass);
   p.sum[pixel].w += float(tracer.rays);
 }
 
@@ -185,6 +190,10 @@ extern "C" __global__ void __raygen__restir_shade() {
   Tracer tracer;
   const RestirPixel& q = p.restir_pixels[pixel];
   const Vec3 L = q.L + restir_shade<kAllFeatures>(tracer, p.scene, p.integrator, q, p.restir_in[pixel]);
+  if (p.restir_history) {  // temporal reuse: the next sample's history
+    p.restir_history_pixels[pixel] = q;
+    p.restir_history[pixel] = p.restir_in[pixel];
+  }
   const float rays = p.sum[pixel].w + float(tracer.rays);
   if (!is_finite(L)) {  // as in render_pixels: skipped, counted
     p.sum[pixel] = make_float4(0.f, 0.f, 0.f, rays);

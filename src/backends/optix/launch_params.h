@@ -87,7 +87,12 @@ struct LaunchParams {
   RestirPixel* restir_pixels = nullptr;
   Reservoir* restir_in = nullptr;
   Reservoir* restir_out = nullptr;
-  uint32_t restir_pass = 0;
+  uint32_t restir_pass = 0;  // kRestirTemporalPass: temporal reuse with the history below
+  // Temporal reuse: every pixel's shading point and final reservoir of the
+  // previous sample (written by the shading raygen where set; read by the
+  // temporal pass).
+  RestirPixel* restir_history_pixels = nullptr;
+  Reservoir* restir_history = nullptr;
   // The guides' launch (kRaygenGuides): each pixel's albedo and normal (xyz,
   // w = 0) over `spp` camera rays.
   float4* guide_albedo = nullptr;

@@ -138,6 +138,11 @@ class OptixBackendImpl final : public OptixBackend {
       acc_bad_.alloc(pixels * sizeof(unsigned), "the accumulation buffers", size_);
     }
     PN_CUDA(cudaMemsetAsync(acc_sum_.as<void>(), 0, acc_sum_.size(), stream_));
+    // restir's temporal reuse starts over with the image: no history (valid = 0, M = 0).
+    if (restir_history_pixels_.size()) {
+      PN_CUDA(cudaMemsetAsync(restir_history_pixels_.as<void>(), 0, restir_history_pixels_.size(), stream_));
+      PN_CUDA(cudaMemsetAsync(restir_history_.as<void>(), 0, restir_history_.size(), stream_));
+    }
     PN_CUDA(cudaMemsetAsync(acc_sum_sq_.as<void>(), 0, acc_sum_sq_.size(), stream_));
     PN_CUDA(cudaMemsetAsync(acc_bad_.as<void>(), 0, acc_bad_.size(), stream_));
     accumulated_ = 0;
@@ -166,6 +171,12 @@ class OptixBackendImpl final : public OptixBackend {
       restir_pixels_.alloc(pixels * sizeof(RestirPixel), "restir's shading points", size_);
       restir_a_.alloc(pixels * sizeof(Reservoir), "restir's reservoirs", size_);
       restir_b_.alloc(pixels * sizeof(Reservoir), "restir's reservoirs", size_);
+    }
+    if (restir && frame.integrator.restir.temporal && restir_history_.size() != pixels * sizeof(Reservoir)) {
+      restir_history_pixels_.alloc(pixels * sizeof(RestirPixel), "restir's history", size_);
+      restir_history_.alloc(pixels * sizeof(Reservoir), "restir's history", size_);
+      PN_CUDA(cudaMemsetAsync(restir_history_pixels_.as<void>(), 0, restir_history_pixels_.size(), stream_));
+      PN_CUDA(cudaMemsetAsync(restir_history_.as<void>(), 0, restir_history_.size(), stream_));
     }
     const uint32_t launches = count == 0 ? 0 : (count + per_launch - 1) / per_launch;
     const uint64_t total = uint64_t(pixels) * count;
@@ -250,12 +261,12 @@ class OptixBackendImpl final : public OptixBackend {
   }
 
   // One sample of every pixel by restir's passes (core/restir.h): the
-  // strategy's raygen program as the primary pass, the spatial passes
-  // ping-ponging between two reservoir buffers, then shading, which writes the
-  // launch sums the accumulation kernel reads. Ordered on the stream; each
+  // strategy's raygen program as the primary pass, temporal reuse with the
+  // history (kept since reset()), the spatial passes, all ping-ponging between
+  // two reservoir buffers, then shading, which writes the launch sums the
+  // accumulation kernel reads and the next history. Ordered on the stream; each
   // launch's parameters are staged before cudaMemcpyAsync returns.
-  // NOT YET RUN ON A GPU (written and compiled in a session without device
-  // time): scripts/gpu_check.sh compares it with the CPU backend.
+  // scripts/gpu_check.sh compares it with the CPU backend.
   void launch_restir(LaunchParams p, const OptixShaderBindingTable& primary_sbt, unsigned W, unsigned H) {
     p.restir_pixels = restir_pixels_.as<RestirPixel>();
     p.restir_in = restir_a_.as<Reservoir>();
@@ -264,6 +275,14 @@ class OptixBackendImpl final : public OptixBackend {
     PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
     PN_OPTIX(optixLaunch(pipeline_.get(), stream_, params_.dptr(), sizeof(LaunchParams), &primary_sbt, W, H, 1));
     OptixShaderBindingTable sbt = pipeline_.sbt(kRaygenRestirSpatial);
+    if (p.integrator.restir.temporal) {
+      p.restir_history_pixels = restir_history_pixels_.as<RestirPixel>();
+      p.restir_history = restir_history_.as<Reservoir>();
+      p.restir_pass = kRestirTemporalPass;
+      PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
+      PN_OPTIX(optixLaunch(pipeline_.get(), stream_, params_.dptr(), sizeof(LaunchParams), &sbt, W, H, 1));
+      std::swap(p.restir_in, p.restir_out);
+    }
     for (uint32_t pass = 0; pass < p.integrator.restir.spatial_passes; ++pass) {
       p.restir_pass = pass;
       PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
@@ -492,7 +511,7 @@ class OptixBackendImpl final : public OptixBackend {
         if (*e) cudaEventDestroy(*e), *e = nullptr;
     }
     for (DeviceBuffer* b : {&params_, &counters_, &launch_sum_, &launch_sum_sq_, &acc_sum_, &acc_sum_sq_, &acc_bad_,
-                            &restir_pixels_, &restir_a_, &restir_b_})
+                            &restir_pixels_, &restir_a_, &restir_b_, &restir_history_pixels_, &restir_history_})
       b->release();
     if (stream_) cudaStreamDestroy(stream_);
     stream_ = nullptr;
@@ -515,6 +534,7 @@ class OptixBackendImpl final : public OptixBackend {
   DeviceScene device_scene_{size_};  // the arrays base_params_.scene points at
   Accels accels_;
   DeviceBuffer restir_pixels_, restir_a_, restir_b_;  // restir's passes: shading points, reservoirs (ping-pong)
+  DeviceBuffer restir_history_pixels_, restir_history_;  // temporal reuse: the previous sample's, since reset()
   DeviceBuffer params_, counters_;
   DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, acc_bad_;
   LaunchParams base_params_;
