@@ -522,10 +522,9 @@ std::vector<test::MeanEstimator> restir_frames(const SphereField& field, const T
   return est;
 }
 
-TEST(Restir, SpatialReuseIsUnbiasedWhereNeighboursSeeOtherLights) {
-  const SphereField field(24);
+// Each checkerboard pixel's irradiance from the lights of its parity (closed form: small spheres).
+std::vector<double> checkerboard_irradiance(const SphereField& field) {
   const int N = Checkerboard::kSize;
-  // Each pixel's irradiance from the lights of its parity.
   std::vector<double> exact(size_t(N * N), 0.0);
   for (int y = 0; y < N; ++y)
     for (int x = 0; x < N; ++x) {
@@ -538,6 +537,13 @@ TEST(Restir, SpatialReuseIsUnbiasedWhereNeighboursSeeOtherLights) {
         exact[size_t(y * N + x)] += kPi * l.radiance.x * double(l.radius) * l.radius / (dist * dist) * (d.y / dist);
       }
     }
+  return exact;
+}
+
+TEST(Restir, SpatialReuseIsUnbiasedWhereNeighboursSeeOtherLights) {
+  const SphereField field(24);
+  const int N = Checkerboard::kSize;
+  const std::vector<double> exact = checkerboard_irradiance(field);
   auto z2 = [&](const std::vector<test::MeanEstimator>& est, int* beyond5) {
     double sum = 0;
     *beyond5 = 0;
@@ -571,19 +577,7 @@ TEST(Restir, SpatialReuseIsUnbiasedWhereNeighboursSeeOtherLights) {
 // the chain's first frame's, which has no history.
 TEST(Restir, TemporalReuseIsUnbiasedAndLowersTheVariance) {
   const SphereField field(24);
-  const int N = Checkerboard::kSize;
-  std::vector<double> exact(size_t(N * N), 0.0);
-  for (int y = 0; y < N; ++y)
-    for (int x = 0; x < N; ++x) {
-      const Vec3 p(x * Checkerboard::kPitch, 0.f, y * Checkerboard::kPitch);
-      for (size_t i = 0; i < field.lights.size(); ++i) {
-        if (int(i & 1) != ((x + y) & 1)) continue;
-        const Light& l = field.lights[i];
-        const Vec3 d = l.p - p;
-        const double dist = length(d);
-        exact[size_t(y * N + x)] += kPi * l.radiance.x * double(l.radius) * l.radius / (dist * dist) * (d.y / dist);
-      }
-    }
+  const std::vector<double> exact = checkerboard_irradiance(field);
   RestirSettings rs;
   rs.candidates = 4;
   rs.spatial_passes = 1;
