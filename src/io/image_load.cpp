@@ -141,6 +141,64 @@ bool memory_ok(int w, int h, bool is_float, std::string* error) {
   return true;
 }
 
+}  // namespace
+
+bool exr_header_parsable(const uint8_t* data, size_t size, std::string* why) {
+  if (size < 8) return true;
+  const bool tiled_file = (data[5] & 0x2) != 0, multipart = (data[5] & 0x10) != 0, deep = (data[5] & 0x8) != 0;
+  size_t p = 8, left = size - 8;
+  bool tiled = false;
+  std::string type;
+  // Where tinyexr's walk fails it still converts what it read so far (ParseEXRHeaderFromMemory calls
+  // ConvertHeader either way): the checks below apply to the attributes before the bad one.
+  for (int n = 0; n < 1024 && left > 0 && data[p] != 0; ++n) {  // an empty name ends the header
+    const char* at = reinterpret_cast<const char*>(data + p);
+    const size_t name_len = strnlen(at, left);
+    if (name_len == left) break;
+    const size_t type_len = strnlen(at + name_len + 1, left - name_len - 1);
+    if (type_len == left - name_len - 1) break;
+    const size_t head = name_len + 1 + type_len + 1;
+    if (left - head < 4) break;
+    uint32_t len = 0;
+    std::memcpy(&len, data + p + head, 4);  // little-endian, as the hosts we build for
+    if (len > left - head - 4) break;
+    const std::string name(at, name_len), attr_type(at + name_len + 1, type_len);
+    if (len == 0 && attr_type != "string") break;  // tinyexr stops there too
+    const uint8_t* value = data + p + head + 4;
+    if (name == "tiles" && (tiled_file || multipart || deep)) {
+      if (len != 9) {
+        *why = "a 'tiles' attribute of " + std::to_string(len) + " bytes (9 expected)";
+        return false;
+      }
+      if ((value[8] & 0x3) == 3) {
+        *why = "an unknown tile level mode (3)";
+        return false;
+      }
+      tiled = true;
+    } else if (name == "type" && len > 0 && value[0] != 0) {  // as tinyexr: an empty value leaves the type
+      type.assign(reinterpret_cast<const char*>(value), strnlen(reinterpret_cast<const char*>(value), len));
+    }
+    p += head + 4 + len;
+    left -= head + 4 + len;
+  }
+  if (type.empty()) return true;
+  if (type != "scanlineimage" && type != "tiledimage" && type != "deeptile" && type != "deepscanline") {
+    std::string shown = type.substr(0, 40);
+    for (char& c : shown)
+      if (c < 0x20 || c > 0x7e) c = '?';
+    *why = "an unknown image type '" + shown + "'";
+    return false;
+  }
+  const bool type_tiled = type == "tiledimage" || type == "deeptile";
+  if (type_tiled != tiled) {
+    *why = "image type '" + type + "' in a " + (tiled ? "tiled" : "scanline") + " file";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
 // OpenEXR through tinyexr's lower-level calls, whose results are freed on
 // every path: its LoadEXRFromMemory leaks the header and the image when a
 // file's pixels fail to decode or lack a channel (found by fuzz_image). R, G
@@ -182,6 +240,8 @@ bool decode_exr(const uint8_t* data, size_t size, DecodedImage* out, std::string
     err = nullptr;
     return false;
   };
+  std::string why;
+  if (!exr_header_parsable(data, size, &why)) return fail("invalid header: " + why);
   if (ParseEXRHeaderFromMemory(&exr.header, &version, data, size, &err) != TINYEXR_SUCCESS)
     return fail("invalid header");
   EXRHeader& h = exr.header;

@@ -31,6 +31,15 @@ bool decode_image_file(const std::string& path, bool want_float, DecodedImage* o
 // The same for an encoded image in memory (glTF's embedded images).
 bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, DecodedImage* out, std::string* error);
 
+// Whether tinyexr may parse this single-part OpenEXR header: Debian's tinyexr
+// (1.0.x) aborts the process on an assert, instead of returning an error, for
+// a "type" attribute that is not one of its four names or that contradicts the
+// file's tiling, a "tiles" attribute that is not 9 bytes, or a tile level mode
+// of 3 (found by fuzz_image), even in a header whose later attributes are
+// broken (tinyexr converts what it read before failing). Walks the attributes as
+// tinyexr does; false with a one-line reason in *why for those.
+bool exr_header_parsable(const uint8_t* data, size_t size, std::string* why);
+
 // Whether the extension names a float (HDR) format: .hdr or .exr.
 bool is_hdr_path(const std::string& path);
 
