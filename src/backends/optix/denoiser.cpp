@@ -10,6 +10,7 @@
 #include <optix.h>
 #include <optix_stubs.h>
 
+#include "backends/optix/context.h"
 #include "backends/optix/optix_backend.h"
 
 namespace pn {
@@ -160,8 +161,7 @@ Denoiser::Denoiser(int device) : impl_(std::make_unique<Impl>()) {
   if (r != OPTIX_SUCCESS) {
     std::string msg = std::string("denoiser: OptiX error in optixDenoiserCreate: ") + optixGetErrorName(r) + " (" +
                       optixGetErrorString(r) + ")";
-    for (char& c : log)
-      if (c == '\n' || c == '\r') c = ' ';
+    log = optix::one_line(log);
     if (!log.empty()) msg += ": " + log;
     // The network's weights are a file of the driver's (nvoptix.bin, beside its
     // libraries or in /usr/share/nvidia), which containers often leave out
