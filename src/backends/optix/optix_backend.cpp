@@ -138,11 +138,7 @@ class OptixBackendImpl final : public OptixBackend {
       acc_bad_.alloc(pixels * sizeof(unsigned), "the accumulation buffers", size_);
     }
     PN_CUDA(cudaMemsetAsync(acc_sum_.as<void>(), 0, acc_sum_.size(), stream_));
-    // restir's temporal reuse starts over with the image: no history (valid = 0, M = 0).
-    if (restir_history_pixels_.size()) {
-      PN_CUDA(cudaMemsetAsync(restir_history_pixels_.as<void>(), 0, restir_history_pixels_.size(), stream_));
-      PN_CUDA(cudaMemsetAsync(restir_history_.as<void>(), 0, restir_history_.size(), stream_));
-    }
+    clear_restir_history();  // temporal reuse starts over with the image
     PN_CUDA(cudaMemsetAsync(acc_sum_sq_.as<void>(), 0, acc_sum_sq_.size(), stream_));
     PN_CUDA(cudaMemsetAsync(acc_bad_.as<void>(), 0, acc_bad_.size(), stream_));
     accumulated_ = 0;
@@ -175,8 +171,7 @@ class OptixBackendImpl final : public OptixBackend {
     if (restir && frame.integrator.restir.temporal && restir_history_.size() != pixels * sizeof(Reservoir)) {
       restir_history_pixels_.alloc(pixels * sizeof(RestirPixel), "restir's history", size_);
       restir_history_.alloc(pixels * sizeof(Reservoir), "restir's history", size_);
-      PN_CUDA(cudaMemsetAsync(restir_history_pixels_.as<void>(), 0, restir_history_pixels_.size(), stream_));
-      PN_CUDA(cudaMemsetAsync(restir_history_.as<void>(), 0, restir_history_.size(), stream_));
+      clear_restir_history();
     }
     const uint32_t launches = count == 0 ? 0 : (count + per_launch - 1) / per_launch;
     const uint64_t total = uint64_t(pixels) * count;
@@ -450,6 +445,13 @@ class OptixBackendImpl final : public OptixBackend {
   struct Slot {
     cudaEvent_t start = nullptr, traced = nullptr, end = nullptr;
   };
+
+  // No restir history (valid = 0, M = 0): the next sample's temporal reuse has nothing to take.
+  void clear_restir_history() {
+    if (!restir_history_.size()) return;
+    PN_CUDA(cudaMemsetAsync(restir_history_pixels_.as<void>(), 0, restir_history_pixels_.size(), stream_));
+    PN_CUDA(cudaMemsetAsync(restir_history_.as<void>(), 0, restir_history_.size(), stream_));
+  }
 
   // CUDA's current device is per host thread: every method that calls CUDA on
   // this backend's memory sets it first.
