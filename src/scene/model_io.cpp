@@ -309,6 +309,18 @@ LoadedModel load_obj(ModelContext& ctx) {
 
 // --- glTF 2.0 ------------------------------------------------------------------------
 
+// tinygltf reads whatever path a buffer or image URI names once it can open it:
+// a folder gives a size of 2^63 - 1 and an allocation of that much (found by
+// fuzz_gltf). Only regular files are read; anything else is a one-line error.
+bool read_regular_file(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {
+    if (err) *err += "not a regular file: " + path + "\n";
+    return false;
+  }
+  return tinygltf::ReadWholeFile(out, err, path, user);
+}
+
 // tinygltf hands embedded images (data URIs, .glb buffer views) to this loader;
 // it keeps the encoded bytes, decoded later only if a material uses them.
 // External image files are not read by tinygltf (TINYGLTF_NO_EXTERNAL_IMAGE).
@@ -685,6 +697,8 @@ struct GltfLoader {
   LoadedModel load() {
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(keep_encoded_image, nullptr);
+    loader.SetFsCallbacks({&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_regular_file,
+                           &tinygltf::WriteWholeFile, nullptr});
     std::string err, warn;
     std::string ext = fs::path(ctx.path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
