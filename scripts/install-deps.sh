@@ -8,7 +8,8 @@ packages=(
   libembree-dev          # Embree 3: CPU ray traversal
   nlohmann-json3-dev     # scene files
   libcli11-dev           # command line
-  libstb-dev             # PNG output
+  libstb-dev             # PNG output; PNG, BMP, TGA and HDR textures
+  libjpeg-dev            # JPEG textures (libjpeg-turbo)
   libtinyexr-dev         # EXR output
   libtinyobjloader-dev   # OBJ meshes
   libtinygltf-dev        # glTF 2.0 models (header; compiled in src/scene/tinygltf_impl.cpp)

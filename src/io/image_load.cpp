@@ -7,6 +7,10 @@
 #include <fstream>
 #include <iterator>
 
+#include <csetjmp>
+#include <cstdio>
+
+#include <jpeglib.h>
 #include <stb/stb_image.h>
 #include <tinyexr.h>
 
@@ -138,6 +142,110 @@ bool memory_ok(int w, int h, bool is_float, std::string* error) {
     *error = e.what();
     return false;
   }
+  return true;
+}
+
+// JPEG: libjpeg-turbo, not stb_image. Debian's libstb is built with its
+// assertions on, and stb's Huffman decoder asserts (aborts the process) on a
+// malformed code table, which CI's fuzz_image found; libjpeg reports every
+// error through its error manager, which returns here by longjmp.
+// What stb_image takes for a JPEG (its first marker SOI, after any 0xFF fill
+// bytes) goes to libjpeg, which refuses the fill bytes in one line.
+bool is_jpeg(const uint8_t* d, size_t n) {
+  size_t i = 0;
+  if (n == 0 || d[0] != 0xFF) return false;
+  while (i < n && d[i] == 0xFF) ++i;
+  return i < n && d[i] == 0xD8;
+}
+
+// Formats stb_image would also decode but penumbra does not take as textures
+// (docs/scene-format.md): GIF, PSD, Softimage PIC, PNM. Refused before stb, so
+// that its decoders of them, with its assertions, never see a file.
+const char* unsupported_format(const uint8_t* d, size_t n) {
+  auto starts = [&](const char* magic, size_t k) { return n >= k && std::memcmp(d, magic, k) == 0; };
+  if (starts("GIF8", 4)) return "GIF";
+  if (starts("8BPS", 4)) return "PSD";
+  if (starts("\x53\x80\xF6\x34", 4)) return "Softimage PIC";
+  if (n >= 2 && d[0] == 'P' && (d[1] == '5' || d[1] == '6')) return "PNM";
+  return nullptr;
+}
+
+struct JpegErrors {
+  jpeg_error_mgr mgr;
+  std::jmp_buf jump;
+  char message[JMSG_LENGTH_MAX];
+};
+
+void jpeg_fail(j_common_ptr cinfo) {
+  auto* e = reinterpret_cast<JpegErrors*>(cinfo->err);
+  cinfo->err->format_message(cinfo, e->message);
+  std::longjmp(e->jump, 1);
+}
+
+// A corrupt stream is a warning to libjpeg, which then fills in grey and goes
+// on: here it is an error, so that a damaged texture is never silently drawn.
+void jpeg_warning(j_common_ptr cinfo, int level) {
+  if (level < 0) jpeg_fail(cinfo);
+}
+
+// Progressive JPEGs may hold any number of scans, each a pass over the whole
+// image: a few hundred bytes can keep the decoder busy for minutes (the same
+// limit as libjpeg-turbo's TJFLAG_LIMITSCANS).
+constexpr int kMaxJpegScans = 500;
+void jpeg_progress(j_common_ptr cinfo) {
+  auto* d = reinterpret_cast<j_decompress_ptr>(cinfo);
+  if (d->is_decompressor && d->input_scan_number > kMaxJpegScans) {
+    auto* e = reinterpret_cast<JpegErrors*>(cinfo->err);
+    std::snprintf(e->message, sizeof e->message, "more than %d progressive scans", kMaxJpegScans);
+    std::longjmp(e->jump, 1);
+  }
+}
+
+// RGBA, 8 bits a channel, into *rgba (null: the header alone, for *w and *h);
+// false with *error otherwise. Only plain data lives between setjmp and the
+// longjmp (the vector is the caller's).
+bool decode_jpeg(const uint8_t* data, size_t size, bool want_float, int* w, int* h, std::vector<uint8_t>* rgba,
+                 std::string* error) {
+  jpeg_decompress_struct cinfo;
+  JpegErrors errors;
+  jpeg_progress_mgr progress;
+  cinfo.err = jpeg_std_error(&errors.mgr);
+  errors.mgr.error_exit = jpeg_fail;
+  errors.mgr.emit_message = jpeg_warning;
+  errors.message[0] = '\0';
+  if (setjmp(errors.jump)) {
+    *error = std::string("cannot decode image: JPEG: ") + errors.message;
+    jpeg_destroy_decompress(&cinfo);
+    return false;
+  }
+  jpeg_create_decompress(&cinfo);
+  progress.progress_monitor = jpeg_progress;
+  cinfo.progress = &progress;
+  jpeg_mem_src(&cinfo, data, static_cast<unsigned long>(size));
+  jpeg_read_header(&cinfo, TRUE);
+  *w = int(std::min<JDIMENSION>(cinfo.image_width, JPEG_MAX_DIMENSION));
+  *h = int(std::min<JDIMENSION>(cinfo.image_height, JPEG_MAX_DIMENSION));
+  if (!rgba) {
+    jpeg_destroy_decompress(&cinfo);
+    return true;
+  }
+  if (cinfo.image_width > JPEG_MAX_DIMENSION || cinfo.image_height > JPEG_MAX_DIMENSION ||
+      !size_ok(int(cinfo.image_width), int(cinfo.image_height), error) ||
+      !memory_ok(int(cinfo.image_width), int(cinfo.image_height), want_float, error)) {
+    jpeg_destroy_decompress(&cinfo);
+    return false;
+  }
+  cinfo.out_color_space = JCS_EXT_RGBA;  // grey and YCbCr to RGB, alpha 255 (CMYK: an error)
+  jpeg_start_decompress(&cinfo);
+  *w = int(cinfo.output_width);
+  *h = int(cinfo.output_height);
+  rgba->resize(size_t(*w) * size_t(*h) * 4);
+  while (cinfo.output_scanline < cinfo.output_height) {
+    JSAMPROW row = rgba->data() + size_t(cinfo.output_scanline) * size_t(*w) * 4;
+    jpeg_read_scanlines(&cinfo, &row, 1);
+  }
+  jpeg_finish_decompress(&cinfo);
+  jpeg_destroy_decompress(&cinfo);
   return true;
 }
 
@@ -304,6 +412,15 @@ bool decode_exr(const uint8_t* data, size_t size, DecodedImage* out, std::string
 
 }  // namespace
 
+bool image_dimensions(const uint8_t* data, size_t size, int* w, int* h) {
+  if (data == nullptr || size == 0 || size > size_t(1) << 31) return false;
+  std::string unused;
+  if (is_jpeg(data, size)) return decode_jpeg(data, size, false, w, h, nullptr, &unused);
+  if (unsupported_format(data, size)) return false;
+  int comp = 0;
+  return stbi_info_from_memory(data, int(size), w, h, &comp) != 0;
+}
+
 bool is_hdr_path(const std::string& path) {
   std::string e = lower_extension(path);
   return e == "hdr" || e == "exr";
@@ -327,17 +444,24 @@ bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, Deco
     return decode_exr(data, size, out, error);
   }
   int w = 0, h = 0, comp = 0;
-  if (!stbi_info_from_memory(data, int(size), &w, &h, &comp)) {
-    const char* why = stbi_failure_reason();
-    *error = std::string("cannot decode image: ") + (why ? why : "unknown format");
+  std::vector<uint8_t> rgba;  // 8-bit images, RGBA
+  if (is_jpeg(data, size)) {
+    if (!decode_jpeg(data, size, want_float, &w, &h, &rgba, error)) return false;
+  } else if (const char* format = unsupported_format(data, size)) {
+    *error = std::string("unsupported image format: ") + format + " (textures are PNG, JPEG, TGA, BMP, HDR or EXR)";
     return false;
-  }
-  if (!size_ok(w, h, error)) return false;
-  const bool hdr = stbi_is_hdr_from_memory(data, int(size)) != 0;
-  if (!memory_ok(w, h, want_float, error)) return false;
-  if (want_float) {
-    // stbi_loadf would linearize 8-bit images with gamma 2.2; decode sRGB exactly instead.
-    if (hdr) {
+  } else {
+    if (!stbi_info_from_memory(data, int(size), &w, &h, &comp)) {
+      const char* why = stbi_failure_reason();
+      *error = std::string("cannot decode image: ") + (why ? why : "unknown format");
+      return false;
+    }
+    if (!size_ok(w, h, error) || !memory_ok(w, h, want_float, error)) return false;
+    if (stbi_is_hdr_from_memory(data, int(size))) {
+      if (!want_float) {
+        *error = "an HDR (float) image cannot be a colour or data texture";
+        return false;
+      }
       if (!hdr_decoder_ends(data, size)) {
         *error = "cannot decode image: bad or truncated run-length data in HDR";
         return false;
@@ -352,39 +476,32 @@ bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, Deco
       std::memcpy(out->texels.data(), f, out->texels.size());
       stbi_image_free(f);
       out->repaired_texels = repair_float_texels(out->texels);
-    } else {
-      unsigned char* p = stbi_load_from_memory(data, int(size), &w, &h, &comp, 4);
-      if (!p) {
-        const char* why = stbi_failure_reason();
-        *error = std::string("cannot decode image: ") + (why ? why : "unknown error");
-        return false;
-      }
-      out->texels.resize(size_t(w) * h * 16);
-      float* f = reinterpret_cast<float*>(out->texels.data());
-      for (size_t i = 0; i < size_t(w) * h * 4; ++i)
-        f[i] = (i % 4 == 3) ? p[i] / 255.f : srgb_decode(p[i] / 255.f);
-      stbi_image_free(p);
+      out->width = w;
+      out->height = h;
+      out->is_float = true;
+      return true;
     }
-    out->width = w;
-    out->height = h;
-    out->is_float = true;
-    return true;
-  }
-  if (hdr) {
-    *error = "an HDR (float) image cannot be a colour or data texture";
-    return false;
-  }
-  unsigned char* p = stbi_load_from_memory(data, int(size), &w, &h, &comp, 4);
-  if (!p) {
-    const char* why = stbi_failure_reason();
-    *error = std::string("cannot decode image: ") + (why ? why : "unknown error");
-    return false;
+    unsigned char* p = stbi_load_from_memory(data, int(size), &w, &h, &comp, 4);
+    if (!p) {
+      const char* why = stbi_failure_reason();
+      *error = std::string("cannot decode image: ") + (why ? why : "unknown error");
+      return false;
+    }
+    rgba.assign(p, p + size_t(w) * h * 4);
+    stbi_image_free(p);
   }
   out->width = w;
   out->height = h;
-  out->is_float = false;
-  out->texels.assign(p, p + size_t(w) * h * 4);
-  stbi_image_free(p);
+  out->is_float = want_float;
+  if (!want_float) {
+    out->texels = std::move(rgba);
+    return true;
+  }
+  // stbi_loadf would linearize 8-bit images with gamma 2.2; decode sRGB exactly instead.
+  out->texels.resize(size_t(w) * h * 16);
+  float* f = reinterpret_cast<float*>(out->texels.data());
+  for (size_t i = 0; i < size_t(w) * h * 4; ++i)
+    f[i] = (i % 4 == 3) ? rgba[i] / 255.f : srgb_decode(rgba[i] / 255.f);
   return true;
 }
 

@@ -1,5 +1,6 @@
-// Image files read as textures: PNG, JPEG, TGA, BMP (stb_image, 8-bit), Radiance
-// .hdr (stb_image, float) and OpenEXR (tinyexr, float). Always RGBA, row 0 at
+// Image files read as textures: PNG, TGA, BMP (stb_image, 8-bit), JPEG
+// (libjpeg-turbo, 8-bit), Radiance .hdr (stb_image, float) and OpenEXR
+// (tinyexr, float). Always RGBA, row 0 at
 // the top of the image (no flipping).
 #pragma once
 
@@ -30,6 +31,10 @@ bool decode_image_file(const std::string& path, bool want_float, DecodedImage* o
 
 // The same for an encoded image in memory (glTF's embedded images).
 bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, DecodedImage* out, std::string* error);
+
+// The width and height a PNG, JPEG, TGA, BMP or HDR header declares, as the
+// decoder will read them (headers only; false where it finds none). EXR: no.
+bool image_dimensions(const uint8_t* data, size_t size, int* w, int* h);
 
 // Whether tinyexr may parse this single-part OpenEXR header: Debian's tinyexr
 // (1.0.x) aborts the process on an assert, instead of returning an error, for

@@ -1,9 +1,9 @@
-// Fuzz target: the image loaders of textures and environments: PNG, JPEG, BMP,
-// TGA, Radiance HDR (stb_image) and OpenEXR (tinyexr), as 8-bit and as float.
+// Fuzz target: the image loaders of textures and environments: PNG, BMP, TGA,
+// Radiance HDR (stb_image), JPEG (libjpeg-turbo) and OpenEXR (tinyexr), as
+// 8-bit and as float.
 #include <cstdint>
 #include <string>
 
-#include <stb/stb_image.h>
 #include <tinyexr.h>
 
 #include "io/image_load.h"
@@ -18,8 +18,8 @@ namespace {
 constexpr int64_t kMaxFuzzTexels = int64_t(1) << 18;
 
 bool too_large(const uint8_t* data, size_t size) {
-  int w = 0, h = 0, c = 0;
-  if (stbi_info_from_memory(data, int(size), &w, &h, &c)) return int64_t(w) * h > kMaxFuzzTexels;
+  int w = 0, h = 0;
+  if (pn::image_dimensions(data, size, &w, &h)) return int64_t(w) * h > kMaxFuzzTexels;
   EXRVersion version;
   if (ParseEXRVersionFromMemory(&version, data, size) != TINYEXR_SUCCESS) return false;
   std::string why;
