@@ -2,8 +2,9 @@
 // runs on the CPU against the CPU backend's own Embree answers, on every built-in
 // scene (those whose data is missing are skipped) and on an alpha-textured scene,
 // with random rays inside the scene's bounds and camera rays. Also the BVH's
-// invariants: every triangle of a mesh in exactly one leaf, every box inside its
-// parent's, every item of the top level once.
+// invariants: every triangle of a mesh in at least one leaf (exactly one without
+// spatial splits) and every point of it inside one of its leaves' boxes, every
+// box inside its parent's, every item of the top level once.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -152,6 +153,7 @@ struct Box {
     return lo.x <= b.lo.x && lo.y <= b.lo.y && lo.z <= b.lo.z && b.hi.x <= hi.x && b.hi.y <= hi.y && b.hi.z <= hi.z;
   }
   bool contains(Vec3 p) const { return contains(Box{p, p}); }
+  bool contains(Vec3 p, float eps) const { return Box{lo - Vec3(eps), hi + Vec3(eps)}.contains(p); }
 };
 
 Box child_box(const BvhNode& n, int c) {
@@ -172,8 +174,22 @@ void walk(const BvhHost& b, int32_t ref, const Box& box, const Leaf& leaf, int* 
   }
 }
 
-void check_invariants(const Scene& scene) {
-  const BvhHost b = build_bvh(scene);
+// Points of a triangle: its corners, edge midpoints and centroid, and random ones.
+std::vector<Vec3> points_of(Vec3 a, Vec3 b, Vec3 c, Rng& rng) {
+  std::vector<Vec3> p = {a, b, c, (a + b) * 0.5f, (b + c) * 0.5f, (c + a) * 0.5f, (a + b + c) * (1.f / 3.f)};
+  for (int i = 0; i < 8; ++i) {
+    float u = rng.uniform(), v = rng.uniform();
+    if (u + v > 1.f) u = 1.f - u, v = 1.f - v;
+    p.push_back(a + (b - a) * u + (c - a) * v);
+  }
+  return p;
+}
+
+void check_invariants(const Scene& scene, bool splits) {
+  BvhBuildOptions options;
+  options.spatial_splits = splits;
+  const BvhHost b = build_bvh(scene, options);
+  Rng rng(0, 0, kSeed);
   const Box everything{Vec3(-kInf), Vec3(kInf)};
   int bad_boxes = 0;
   // Bottom level: each mesh once, through its first instance.
@@ -184,19 +200,38 @@ void check_invariants(const Scene& scene) {
     if (seen_mesh[mi]) continue;
     seen_mesh[mi] = true;
     const TriangleMesh& m = scene.meshes[mi];
-    std::vector<int> count(m.indices.size(), 0);
+    std::vector<std::vector<Box>> leaf_boxes(m.indices.size());  // of each triangle's leaves
     walk(b, bi.root, everything, [&](int32_t ref, const Box& box) {
       for (uint32_t i = 0; i < bvh_leaf_count(ref); ++i) {
         const BvhTriangle& t = b.triangles.at(bvh_leaf_first(ref) + i);
         ASSERT_LT(t.prim, m.indices.size());
-        ++count[t.prim];
+        leaf_boxes[t.prim].push_back(box);
         ++triangles;
-        for (int k = 0; k < 3; ++k)
-          if (!box.contains(m.positions[m.indices[t.prim][k]])) ++bad_boxes;
+        // The copy is the mesh's triangle.
+        for (int k = 0; k < 3; ++k) {
+          const float* q = k == 0 ? t.p0 : (k == 1 ? t.p1 : t.p2);
+          const Vec3 v = m.positions[m.indices[t.prim][k]];
+          ASSERT_TRUE(q[0] == v.x && q[1] == v.y && q[2] == v.z) << scene.source << ": a copy that is not the triangle";
+        }
       }
     }, &bad_boxes);
-    for (size_t t = 0; t < count.size(); ++t)
-      ASSERT_EQ(count[t], 1) << scene.source << ": mesh " << mi << " triangle " << t;
+    // Every triangle in a leaf (in one alone without splits), and each of its
+    // points inside some leaf's box: the split parts cover the whole triangle.
+    float scale = 0.f;
+    for (const Vec3& p : m.positions) scale = std::max({scale, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+    const float eps = 1e-5f * scale;
+    for (size_t t = 0; t < leaf_boxes.size(); ++t) {
+      const auto& boxes = leaf_boxes[t];
+      if (splits) {
+        ASSERT_GE(boxes.size(), 1u) << scene.source << ": mesh " << mi << " triangle " << t << " in no leaf";
+      } else {
+        ASSERT_EQ(boxes.size(), 1u) << scene.source << ": mesh " << mi << " triangle " << t;
+      }
+      const auto& idx = m.indices[t];
+      for (const Vec3& p : points_of(m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]], rng))
+        ASSERT_TRUE(std::any_of(boxes.begin(), boxes.end(), [&](const Box& bx) { return bx.contains(p, eps); }))
+            << scene.source << ": mesh " << mi << " triangle " << t << ": a point outside its leaves' boxes";
+    }
   }
   EXPECT_EQ(triangles, b.triangles.size()) << scene.source << ": triangles outside every mesh's tree";
   // Top level: every item once; an instance's box holds its mesh's vertices placed.
@@ -253,7 +288,8 @@ TEST_P(CudaTraversalBuiltin, AgreesWithEmbree) {
 TEST_P(CudaTraversalBuiltin, BvhInvariants) {
   const Scene scene = load();
   if (!skipped_.empty()) GTEST_SKIP() << skipped_;
-  check_invariants(scene);
+  check_invariants(scene, true);
+  check_invariants(scene, false);
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, CudaTraversalBuiltin, ::testing::ValuesIn(builtin_names()),
@@ -306,7 +342,8 @@ TEST(CudaTraversal, AlphaMasksAgreeWithEmbree) {
   const BvhHost b = build_bvh(scene);
   EXPECT_TRUE(b.any_alpha_masked);
   check_scene(scene);
-  check_invariants(scene);
+  check_invariants(scene, true);
+  check_invariants(scene, false);
   // The holes are there: straight down through the occluder, about half of the
   // rays that meet its quad reach the floor.
   const std::unique_ptr<HostSceneView> host = make_host_view(scene);

@@ -287,7 +287,9 @@ int run_probe(const BenchArgs& a) {
                       {"meshes", r.bvh.meshes},
                       {"top_depth", r.bvh.top_depth},
                       {"max_mesh_depth", r.bvh.max_mesh_depth},
-                      {"mean_leaf_size", r.bvh.mean_leaf_size}}}});
+                      {"mean_leaf_size", r.bvh.mean_leaf_size},
+                      {"triangles", r.bvh.mesh_triangles},
+                      {"triangle_references", r.bvh.triangle_references}}}});
     }
     j["results"] = rs;
     write_file_atomic(a.json_path, j.dump(2) + "\n");

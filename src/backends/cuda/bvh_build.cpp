@@ -59,6 +59,40 @@ RTCBuildPrimitive build_primitive(Vec3 lo, Vec3 hi, uint32_t id) {
   return p;
 }
 
+// Spatial splits (Stich, Friedrich & Dietrich, "Spatial Splits in Bounding
+// Volume Hierarchies", HPG 2009): Embree's builder may cut a triangle's
+// reference by an axis-aligned plane, and asks for the bounds of both parts.
+// As Embree's own splitter: the triangle's vertices on each side and the
+// points where its edges cross the plane, each side's box then clipped to the
+// reference's current box (an earlier cut may have shrunk it). Both parts keep
+// the triangle's ID; its leaves then hold copies of it.
+void split_triangle(const RTCBuildPrimitive* prim, unsigned int dim, float pos, RTCBounds* left, RTCBounds* right,
+                    void* user) {
+  const TriangleMesh& m = *static_cast<const TriangleMesh*>(user);
+  const auto& idx = m.indices[prim->primID];
+  const Vec3 v[3] = {m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
+  Vec3 llo(kInf), lhi(-kInf), rlo(kInf), rhi(-kInf);
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 a = v[i], b = v[(i + 1) % 3];
+    const float da = a[int(dim)], db = b[int(dim)];
+    if (da <= pos) llo = vmin(llo, a), lhi = vmax(lhi, a);
+    if (da >= pos) rlo = vmin(rlo, a), rhi = vmax(rhi, a);
+    if ((da < pos && db > pos) || (da > pos && db < pos)) {
+      Vec3 c = a + (b - a) * ((pos - da) / (db - da));
+      c[int(dim)] = pos;
+      llo = vmin(llo, c), lhi = vmax(lhi, c);
+      rlo = vmin(rlo, c), rhi = vmax(rhi, c);
+    }
+  }
+  const Vec3 plo(prim->lower_x, prim->lower_y, prim->lower_z), phi(prim->upper_x, prim->upper_y, prim->upper_z);
+  llo = vmax(llo, plo), lhi = vmin(lhi, phi);
+  rlo = vmax(rlo, plo), rhi = vmin(rhi, phi);
+  lhi[int(dim)] = std::min(lhi[int(dim)], pos);
+  rlo[int(dim)] = std::max(rlo[int(dim)], pos);
+  *left = {llo.x, llo.y, llo.z, 0.f, lhi.x, lhi.y, lhi.z, 0.f};
+  *right = {rlo.x, rlo.y, rlo.z, 0.f, rhi.x, rhi.y, rhi.z, 0.f};
+}
+
 void set_box(float* xy, float* z, const RTCBounds& b) {
   xy[0] = b.lower_x, xy[1] = b.upper_x, xy[2] = b.lower_y, xy[3] = b.upper_y;
   z[0] = b.lower_z, z[1] = b.upper_z;
@@ -74,14 +108,18 @@ class Builder {
 
   // Builds a tree over `prims` (ids: what leaves hold) and flattens it into
   // out.nodes; `leaf` appends a leaf's primitives and returns its reference.
-  // Returns the root's reference; *depth: inner nodes on the longest path.
+  // With `mesh`, triangle references may be split (split_triangle), up to as
+  // many again as there are triangles. Returns the root's reference; *depth:
+  // inner nodes on the longest path.
   template <class Leaf>
   int32_t build(std::vector<RTCBuildPrimitive>& prims, uint32_t max_leaf, BvhHost& out, uint32_t* depth,
-                const Leaf& leaf) {
+                const Leaf& leaf, const TriangleMesh* mesh = nullptr) {
     RTCBVH bvh = rtcNewBVH(device_);
     RTCBuildArguments a = rtcDefaultBuildArguments();
+    const size_t count = prims.size();
+    if (mesh) prims.resize(2 * count);  // room for the split references
     a.byteSize = sizeof(a);
-    a.buildQuality = RTC_BUILD_QUALITY_HIGH;  // binned SAH (no splitPrimitive: no spatial splits)
+    a.buildQuality = RTC_BUILD_QUALITY_HIGH;  // binned SAH, spatial splits where splitPrimitive is given
     a.maxBranchingFactor = 2;
     a.maxDepth = 48;
     a.minLeafSize = 1;
@@ -90,12 +128,16 @@ class Builder {
     a.intersectionCost = 1.0f;
     a.bvh = bvh;
     a.primitives = prims.data();
-    a.primitiveCount = prims.size();
+    a.primitiveCount = count;
     a.primitiveArrayCapacity = prims.size();
     a.createNode = create_node;
     a.setNodeChildren = set_children;
     a.setNodeBounds = set_bounds;
     a.createLeaf = create_leaf;
+    if (mesh) {
+      a.splitPrimitive = split_triangle;
+      a.userPtr = const_cast<TriangleMesh*>(mesh);
+    }
     auto* root = static_cast<TmpNode*>(rtcBuildBVH(&a));
     if (!root || rtcGetDeviceError(device_) != RTC_ERROR_NONE) {
       rtcReleaseBVH(bvh);
@@ -132,15 +174,19 @@ class Builder {
   RTCDevice device_ = nullptr;
 };
 
-// Bottom-level leaves: up to 8 triangles (the SAH decides), or PENUMBRA_CUDA_LEAF
-// (1..16: tuning).
-uint32_t mesh_leaf_size() {
-  const char* env = std::getenv("PENUMBRA_CUDA_LEAF");
-  const int v = env ? std::atoi(env) : 8;
-  return (v >= 1 && v <= int(kMaxLeafSize)) ? uint32_t(v) : 8u;
-}
-
 }  // namespace
+
+// The knobs are for measurements: leaves of up to 8 references (the SAH
+// decides) and spatial splits are the defaults.
+BvhBuildOptions BvhBuildOptions::from_environment() {
+  BvhBuildOptions o;
+  if (const char* env = std::getenv("PENUMBRA_CUDA_LEAF")) {
+    const int v = std::atoi(env);
+    if (v >= 1 && v <= int(kMaxLeafSize)) o.leaf_size = uint32_t(v);
+  }
+  if (const char* env = std::getenv("PENUMBRA_CUDA_SPLITS")) o.spatial_splits = std::strcmp(env, "0") != 0;
+  return o;
+}
 
 BvhView BvhHost::view() const {
   BvhView v;
@@ -161,7 +207,7 @@ uint64_t BvhHost::bytes() const {
          instances.size() * sizeof(BvhInstance) + items.size() * sizeof(uint32_t) + spheres.size() * sizeof(float);
 }
 
-BvhHost build_bvh(const Scene& scene) {
+BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   BvhHost out;
   Builder builder;
@@ -173,13 +219,14 @@ BvhHost build_bvh(const Scene& scene) {
   std::vector<bool> mesh_built(scene.meshes.size(), false);
   std::vector<RTCBounds> mesh_bounds(scene.meshes.size());
   size_t leaves = 0;
-  const uint32_t leaf_size = mesh_leaf_size();
+  if (options.leaf_size < 1 || options.leaf_size > kMaxLeafSize)
+    throw std::runtime_error("cuda traversal: leaf size " + std::to_string(options.leaf_size) + " outside 1.." +
+                             std::to_string(kMaxLeafSize));
+  const uint32_t leaf_size = options.leaf_size;
+  const bool splits = options.spatial_splits;
   for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
     const TriangleMesh& m = scene.meshes[mi];
     if (!placed[mi] || m.indices.empty()) continue;
-    if (out.triangles.size() + m.indices.size() > kMaxLeafFirst)
-      throw std::runtime_error(scene.source + ": the cuda traversal holds at most " + std::to_string(kMaxLeafFirst) +
-                               " distinct triangles");
     std::vector<RTCBuildPrimitive> prims(m.indices.size());
     Vec3 lo_all(kInf), hi_all(-kInf);
     for (size_t t = 0; t < m.indices.size(); ++t) {
@@ -192,6 +239,9 @@ BvhHost build_bvh(const Scene& scene) {
     mesh_bounds[mi] = {lo_all.x, lo_all.y, lo_all.z, 0.f, hi_all.x, hi_all.y, hi_all.z, 0.f};
     uint32_t depth = 0;
     mesh_root[mi] = builder.build(prims, leaf_size, out, &depth, [&](const uint32_t* ids, uint32_t count) {
+      if (out.triangles.size() + count > kMaxLeafFirst)
+        throw std::runtime_error(scene.source + ": the cuda traversal holds at most " + std::to_string(kMaxLeafFirst) +
+                                 " triangle references (meshes' triangles, some split in two or more)");
       const uint32_t first = uint32_t(out.triangles.size());
       for (uint32_t i = 0; i < count; ++i) {
         const auto& idx = m.indices[ids[i]];
@@ -201,12 +251,14 @@ BvhHost build_bvh(const Scene& scene) {
       }
       ++leaves;
       return bvh_leaf_ref(first, count);
-    });
+    }, splits ? &m : nullptr);
+    out.stats.mesh_triangles += m.indices.size();
     mesh_built[mi] = true;
     ++out.stats.meshes;
     out.stats.max_mesh_depth = std::max(out.stats.max_mesh_depth, depth);
   }
   out.stats.mean_leaf_size = leaves ? double(out.triangles.size()) / double(leaves) : 0.0;
+  out.stats.triangle_references = out.triangles.size();
 
   // ---- Top level: instances (their mesh's box in world space) and spheres ----
   std::vector<RTCBuildPrimitive> prims;

@@ -1,6 +1,6 @@
 // The cuda traversal's BVH, built on the host: Embree 3's SAH builder
-// (rtcBuildBVH, RTC_BUILD_QUALITY_HIGH) makes a binary tree per mesh and one over
-// the instances and spheres; they are flattened into bvh_layout.h's arrays. The
+// (rtcBuildBVH, RTC_BUILD_QUALITY_HIGH, spatial splits in the meshes' trees)
+// makes a binary tree per mesh and one over the instances and spheres; they are flattened into bvh_layout.h's arrays. The
 // same arrays are traced on the CPU by the tests and uploaded as they are for the
 // GPU (trace_kernels.h).
 #pragma once
@@ -18,7 +18,9 @@ struct BvhStats {
   uint32_t meshes = 0;           // meshes with a BVH (non-empty, placed)
   uint32_t top_depth = 0;        // inner nodes on the longest root-to-leaf path of the top level
   uint32_t max_mesh_depth = 0;   // ... of the deepest mesh BVH
-  double mean_leaf_size = 0;     // triangles per bottom-level leaf
+  double mean_leaf_size = 0;     // triangle references per bottom-level leaf
+  uint64_t mesh_triangles = 0;   // the built meshes' triangles
+  uint64_t triangle_references = 0;  // BvhHost::triangles: more than mesh_triangles where splits copied some
 };
 
 struct BvhHost {
@@ -35,8 +37,14 @@ struct BvhHost {
   uint64_t bytes() const;
 };
 
+struct BvhBuildOptions {
+  bool spatial_splits = true;  // in the meshes' trees (PENUMBRA_CUDA_SPLITS=0 turns them off by default)
+  uint32_t leaf_size = 8;      // most triangle references a leaf, 1..kMaxLeafSize (PENUMBRA_CUDA_LEAF)
+  static BvhBuildOptions from_environment();
+};
+
 // Builds the two levels for `scene`. Throws std::runtime_error with one line
 // (Embree failed, the scene is beyond the layout's limits).
-BvhHost build_bvh(const Scene& scene);
+BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options = BvhBuildOptions::from_environment());
 
 }  // namespace pn
