@@ -12,7 +12,7 @@
 # GPU machine's) from OPTIX_DEV (a clone of NVIDIA's optix-dev; default: this workplace's mirror); with
 # PACK_ONLY=1 it packs an existing BUILD (built for that Python) as it is. Then it fills DIR (about 16 MB):
 #   python/       the package penumbra with its extension; bin/penumbra, the executable;
-#   lib.tar.xz    the Debian libraries they need (Embree, TBB, tinyexr, tinyobjloader, stb);
+#   lib.tar.xz    the Debian libraries they need (Embree, TBB, tinyexr, tinyobjloader, stb, libjpeg);
 #   optix-dev.git a bare clone of OPTIX_DEV, for the fetch test there.
 #
 # check, on the GPU machine (python3 with numpy, pytest; torch or cupy for DLPack):
@@ -57,7 +57,7 @@ prepare() {
   # The shared libraries from Debian packages (not glibc, libstdc++ or the driver's).
   local libs=()
   while read -r so; do libs+=("$so"); done < <(ldd "$dir"/python/penumbra/_penumbra*.so "$dir/bin/penumbra" |
-    awk '/=> \//{print $3}' | grep -E 'embree|tbb|tinyexr|tinyobjloader|libstb' | sort -u)
+    awk '/=> \//{print $3}' | grep -E 'embree|tbb|tinyexr|tinyobjloader|libstb|libjpeg' | sort -u)
   mkdir -p "$dir/lib"
   cp -L "${libs[@]}" "$dir/lib/"
   tar -C "$dir" -cJf "$dir/lib.tar.xz" lib
