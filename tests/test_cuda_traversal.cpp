@@ -157,21 +157,17 @@ struct Box {
 };
 
 Box child_box(const BvhNode& n, int c) {
-  return Box{Vec3(n.lo_x[c], n.lo_y[c], n.lo_z[c]), Vec3(n.hi_x[c], n.hi_y[c], n.hi_z[c])};
+  const float* xy = c == 0 ? n.c0 : n.c1;
+  return Box{Vec3(xy[0], xy[2], n.z[2 * c]), Vec3(xy[1], xy[3], n.z[2 * c + 1])};
 }
 
-// Walks a subtree whose box is `box`, calling leaf(ref) on its leaves. Every
-// node has two children or more, those first; the missing ones are kBvhPop.
+// Walks a subtree whose box is `box`, calling leaf(ref) on its leaves.
 template <class Leaf>
 void walk(const BvhHost& b, int32_t ref, const Box& box, const Leaf& leaf, int* bad_boxes) {
   if (ref < 0) return leaf(ref, box);
   ASSERT_LT(size_t(ref), b.nodes.size());
   const BvhNode& n = b.nodes[size_t(ref)];
-  int children = 0;
-  while (children < kBvhWidth && n.child[children] != kBvhPop) ++children;
-  ASSERT_GE(children, 2);
-  for (int c = children; c < kBvhWidth; ++c) ASSERT_EQ(n.child[c], kBvhPop);
-  for (int c = 0; c < children; ++c) {
+  for (int c = 0; c < 2; ++c) {
     const Box cb = child_box(n, c);
     if (!box.contains(cb)) ++*bad_boxes;
     walk(b, n.child[c], cb, leaf, bad_boxes);

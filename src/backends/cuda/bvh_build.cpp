@@ -20,28 +20,24 @@ namespace {
 // The builder's tree, in memory of its thread-local allocator (freed with the RTCBVH).
 struct TmpNode {
   bool leaf = false;
-  uint32_t children = 0;    // inner node: 2..kBvhWidth
-  TmpNode* child[kBvhWidth] = {};
-  RTCBounds bounds[kBvhWidth];
+  TmpNode* child[2] = {nullptr, nullptr};
+  RTCBounds bounds[2];
   uint32_t count = 0;       // leaf: primitives
   const uint32_t* prims = nullptr;  // leaf: their IDs
 };
 
 void* create_node(RTCThreadLocalAllocator alloc, unsigned int children, void*) {
-  if (children > unsigned(kBvhWidth)) return nullptr;  // maxBranchingFactor is the width: the flattening reports it
-  auto* n = new (rtcThreadLocalAlloc(alloc, sizeof(TmpNode), 16)) TmpNode();
-  n->children = children;
-  return n;
+  if (children != 2) return nullptr;  // maxBranchingFactor is 2: the flattening reports it
+  return new (rtcThreadLocalAlloc(alloc, sizeof(TmpNode), 16)) TmpNode();
 }
 
 void set_children(void* node, void** children, unsigned int count, void*) {
-  auto* n = static_cast<TmpNode*>(node);
-  n->children = std::min(count, unsigned(kBvhWidth));
-  for (unsigned i = 0; i < n->children; ++i) n->child[i] = static_cast<TmpNode*>(children[i]);
+  for (unsigned i = 0; i < count && i < 2; ++i)
+    static_cast<TmpNode*>(node)->child[i] = static_cast<TmpNode*>(children[i]);
 }
 
 void set_bounds(void* node, const RTCBounds** bounds, unsigned int count, void*) {
-  for (unsigned i = 0; i < count && i < unsigned(kBvhWidth); ++i) static_cast<TmpNode*>(node)->bounds[i] = *bounds[i];
+  for (unsigned i = 0; i < count && i < 2; ++i) static_cast<TmpNode*>(node)->bounds[i] = *bounds[i];
 }
 
 void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count, void*) {
@@ -97,10 +93,9 @@ void split_triangle(const RTCBuildPrimitive* prim, unsigned int dim, float pos, 
   *right = {rlo.x, rlo.y, rlo.z, 0.f, rhi.x, rhi.y, rhi.z, 0.f};
 }
 
-void set_child_box(BvhNode& n, int c, const RTCBounds& b) {
-  n.lo_x[c] = b.lower_x, n.hi_x[c] = b.upper_x;
-  n.lo_y[c] = b.lower_y, n.hi_y[c] = b.upper_y;
-  n.lo_z[c] = b.lower_z, n.hi_z[c] = b.upper_z;
+void set_box(float* xy, float* z, const RTCBounds& b) {
+  xy[0] = b.lower_x, xy[1] = b.upper_x, xy[2] = b.lower_y, xy[3] = b.upper_y;
+  z[0] = b.lower_z, z[1] = b.upper_z;
 }
 
 class Builder {
@@ -115,18 +110,17 @@ class Builder {
   // out.nodes; `leaf` appends a leaf's primitives and returns its reference.
   // With `mesh`, triangle references may be split (split_triangle), up to as
   // many again as there are triangles. Returns the root's reference; *depth:
-  // inner nodes on the longest path; *stack: the most stack entries a ray
-  // can leave on the way to a leaf (a node's children but the one it enters).
+  // inner nodes on the longest path.
   template <class Leaf>
   int32_t build(std::vector<RTCBuildPrimitive>& prims, uint32_t max_leaf, BvhHost& out, uint32_t* depth,
-                uint32_t* stack, const Leaf& leaf, const TriangleMesh* mesh = nullptr) {
+                const Leaf& leaf, const TriangleMesh* mesh = nullptr) {
     RTCBVH bvh = rtcNewBVH(device_);
     RTCBuildArguments a = rtcDefaultBuildArguments();
     const size_t count = prims.size();
     if (mesh) prims.resize(2 * count);  // room for the split references
     a.byteSize = sizeof(a);
     a.buildQuality = RTC_BUILD_QUALITY_HIGH;  // binned SAH, spatial splits where splitPrimitive is given
-    a.maxBranchingFactor = kBvhWidth;
+    a.maxBranchingFactor = 2;
     a.maxDepth = 48;
     a.minLeafSize = 1;
     a.maxLeafSize = max_leaf;
@@ -151,34 +145,29 @@ class Builder {
                                std::to_string(rtcGetDeviceError(device_)) + ")");
     }
     *depth = 0;
-    *stack = 0;
-    const int32_t ref = flatten(root, max_leaf, out, 0, 0, depth, stack, leaf);
+    const int32_t ref = flatten(root, max_leaf, out, 0, depth, leaf);
     rtcReleaseBVH(bvh);
     return ref;
   }
 
  private:
   template <class Leaf>
-  int32_t flatten(const TmpNode* n, uint32_t max_leaf, BvhHost& out, uint32_t d, uint32_t pushed, uint32_t* depth,
-                  uint32_t* stack, const Leaf& leaf) {
-    if (!n) throw std::runtime_error("cuda traversal: Embree's builder made a node wider than " +
-                                     std::to_string(kBvhWidth));
+  int32_t flatten(const TmpNode* n, uint32_t max_leaf, BvhHost& out, uint32_t d, uint32_t* depth, const Leaf& leaf) {
+    if (!n) throw std::runtime_error("cuda traversal: Embree's builder made a node that is not binary");
     if (n->leaf) {
       if (n->count == 0 || n->count > max_leaf) throw std::runtime_error("cuda traversal: a leaf of bad size");
-      *stack = std::max(*stack, pushed);
       return leaf(n->prims, n->count);
     }
-    if (n->children < 2) throw std::runtime_error("cuda traversal: Embree's builder made a node of one child");
     *depth = std::max(*depth, d + 1);
     const int32_t index = int32_t(out.nodes.size());
     out.nodes.emplace_back();
-    BvhNode node{};
-    for (int c = 0; c < kBvhWidth; ++c) node.child[c] = kBvhPop;
-    for (uint32_t c = 0; c < n->children; ++c) {
-      set_child_box(node, int(c), n->bounds[c]);
-      node.child[c] = flatten(n->child[c], max_leaf, out, d + 1, pushed + n->children - 1, depth, stack, leaf);
-    }
-    out.nodes[size_t(index)] = node;
+    BvhNode& node = out.nodes.back();
+    set_box(node.c0, node.z, n->bounds[0]);
+    set_box(node.c1, node.z + 2, n->bounds[1]);
+    const int32_t c0 = flatten(n->child[0], max_leaf, out, d + 1, depth, leaf);
+    const int32_t c1 = flatten(n->child[1], max_leaf, out, d + 1, depth, leaf);
+    out.nodes[size_t(index)].child[0] = c0;  // `node` may have moved
+    out.nodes[size_t(index)].child[1] = c1;
     return index;
   }
 
@@ -248,8 +237,8 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
       hi_all = vmax(hi_all, hi);
     }
     mesh_bounds[mi] = {lo_all.x, lo_all.y, lo_all.z, 0.f, hi_all.x, hi_all.y, hi_all.z, 0.f};
-    uint32_t depth = 0, stack = 0;
-    mesh_root[mi] = builder.build(prims, leaf_size, out, &depth, &stack, [&](const uint32_t* ids, uint32_t count) {
+    uint32_t depth = 0;
+    mesh_root[mi] = builder.build(prims, leaf_size, out, &depth, [&](const uint32_t* ids, uint32_t count) {
       if (out.triangles.size() + count > kMaxLeafFirst)
         throw std::runtime_error(scene.source + ": the cuda traversal holds at most " + std::to_string(kMaxLeafFirst) +
                                  " triangle references (meshes' triangles, some split in two or more)");
@@ -267,7 +256,6 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
     mesh_built[mi] = true;
     ++out.stats.meshes;
     out.stats.max_mesh_depth = std::max(out.stats.max_mesh_depth, depth);
-    out.stats.max_mesh_stack = std::max(out.stats.max_mesh_stack, stack);
   }
   out.stats.mean_leaf_size = leaves ? double(out.triangles.size()) / double(leaves) : 0.0;
   out.stats.triangle_references = out.triangles.size();
@@ -311,15 +299,15 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
                              " instances and spheres");
   if (!prims.empty()) {
     // One item per leaf: the traversal enters an instance from its leaf.
-    out.root = builder.build(prims, 1, out, &out.stats.top_depth, &out.stats.top_stack, [&](const uint32_t* ids, uint32_t count) {
+    out.root = builder.build(prims, 1, out, &out.stats.top_depth, [&](const uint32_t* ids, uint32_t count) {
       (void)count;
       return bvh_leaf_ref(ids[0], 1);
     });
   }
-  if (out.stats.top_stack + out.stats.max_mesh_stack > kBvhStackSize)
-    throw std::runtime_error(scene.source + ": the cuda traversal's BVH may leave " +
-                             std::to_string(out.stats.top_stack + out.stats.max_mesh_stack) +
-                             " entries on a ray's stack, more than its " + std::to_string(kBvhStackSize));
+  if (out.stats.top_depth + out.stats.max_mesh_depth > kBvhStackSize)
+    throw std::runtime_error(scene.source + ": the cuda traversal's BVH is " +
+                             std::to_string(out.stats.top_depth + out.stats.max_mesh_depth) +
+                             " nodes deep, more than its stack of " + std::to_string(kBvhStackSize));
   out.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

@@ -1,6 +1,6 @@
 // The cuda traversal's BVH, built on the host: Embree 3's SAH builder
 // (rtcBuildBVH, RTC_BUILD_QUALITY_HIGH, spatial splits in the meshes' trees)
-// makes a four-wide tree per mesh and one over the instances and spheres; they are flattened into bvh_layout.h's arrays. The
+// makes a binary tree per mesh and one over the instances and spheres; they are flattened into bvh_layout.h's arrays. The
 // same arrays are traced on the CPU by the tests and uploaded as they are for the
 // GPU (trace_kernels.h).
 #pragma once
@@ -18,8 +18,6 @@ struct BvhStats {
   uint32_t meshes = 0;           // meshes with a BVH (non-empty, placed)
   uint32_t top_depth = 0;        // inner nodes on the longest root-to-leaf path of the top level
   uint32_t max_mesh_depth = 0;   // ... of the deepest mesh BVH
-  uint32_t top_stack = 0;        // most stack entries a ray leaves on a root-to-leaf path of the top level
-  uint32_t max_mesh_stack = 0;   // ... of the mesh BVH that needs most
   double mean_leaf_size = 0;     // triangle references per bottom-level leaf
   uint64_t mesh_triangles = 0;   // the built meshes' triangles
   uint64_t triangle_references = 0;  // BvhHost::triangles: more than mesh_triangles where splits copied some

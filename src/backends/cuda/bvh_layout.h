@@ -4,15 +4,14 @@
 // bvh_traverse.h. Two levels, as the OptiX backend's GAS-per-mesh + IAS and the
 // CPU backend's Embree instances:
 //
-//   bottom level: one BVH4 per mesh over its triangles, in object space;
-//   top level:    one BVH4 over the placed instances (their meshes' root boxes
+//   bottom level: one BVH2 per mesh over its triangles, in object space;
+//   top level:    one BVH2 over the placed instances (their meshes' root boxes
 //                 moved to world space) and the spheres, one item per leaf.
 //
 // Every BVH of the scene lives in one node array, so that the node visit is the
-// same code at both levels. A node holds the boxes of its (up to) four children,
-// coordinate by coordinate, and their references: one 112-byte read (seven
-// 16-byte loads) tests all four. Four children halve the depth of a binary
-// tree: fewer dependent node reads per ray, which is what a ray waits on.
+// same code at both levels. A node holds the boxes of its two children (Aila and
+// Laine, "Understanding the Efficiency of Ray Traversal on GPUs", HPG 2009): one
+// 64-byte node read (four 16-byte loads) tests both children.
 #pragma once
 
 #include <cstdint>
@@ -36,24 +35,22 @@ PN_FN int32_t bvh_leaf_ref(uint32_t first, uint32_t count) {
 PN_FN uint32_t bvh_leaf_first(int32_t ref) { return uint32_t(~ref) >> kLeafCountBits; }
 PN_FN uint32_t bvh_leaf_count(int32_t ref) { return (uint32_t(~ref) & (kMaxLeafSize - 1u)) + 1u; }
 
-constexpr int kBvhWidth = 4;  // children a node
-
-// The traversal's stack: a node pushes at most kBvhWidth - 1 entries, and the
-// most a ray can hold, over the deepest path of both levels, is checked against
-// it at build time (BvhStats::max_stack).
+// The traversal's stack: the deepest path it can meet, top-level depth + deepest
+// mesh (inner nodes), is checked against it at build time.
 constexpr uint32_t kBvhStackSize = 64;
 
-// Up to four children: boxes and references. A missing child (a node of two or
-// three) has reference kBvhPop, which the traversal never enters, and a zero
-// box. The order of the floats is that of the GPU's loads: four lower x, four
-// upper x, then y and z.
+// Two children: boxes and references. The order of the floats is that of the
+// three 16-byte loads the GPU makes (x and y of each child, then both z ranges).
+// An empty child (a mesh of one leaf has a root with one child) has an inverted
+// box, which no ray enters.
 struct alignas(16) BvhNode {
-  float lo_x[4], hi_x[4];
-  float lo_y[4], hi_y[4];
-  float lo_z[4], hi_z[4];
-  int32_t child[4];
+  float c0[4];  // child 0: lo.x, hi.x, lo.y, hi.y
+  float c1[4];  // child 1: lo.x, hi.x, lo.y, hi.y
+  float z[4];   // child 0: lo.z, hi.z; child 1: lo.z, hi.z
+  int32_t child[2];
+  int32_t pad[2] = {0, 0};
 };
-static_assert(sizeof(BvhNode) == 112, "BvhNode is seven 16-byte reads");
+static_assert(sizeof(BvhNode) == 64, "BvhNode is one 64-byte read");
 
 // A triangle, its vertices in object space; `prim` (the triangle's index in its
 // mesh, as the HitRecord reports it) rides in p0's fourth float as raw bits.

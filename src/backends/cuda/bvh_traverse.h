@@ -2,8 +2,7 @@
 // host and device code (the CPU tests check it against Embree; the GPU's
 // trace kernels run it one ray per thread).
 //
-// One loop for both levels (a stack of child references, nearest child first,
-// over four-wide nodes):
+// One loop for both levels (a stack of child references, nearer child first):
 // a top-level leaf holds one item, a sphere (the core's intersect_sphere on the
 // world ray) or an instance, which is entered by moving the ray into its object
 // space and continuing at its mesh's root; when the stack is popped back to the
@@ -47,14 +46,12 @@ PN_FN BvhRay make_bvh_ray(Vec3 o, Vec3 d) {
   return r;
 }
 
-// Entry distance of a box, and whether the ray meets it in [0, tmax]
-// (t_near <= t_far, the far end widened).
-PN_FN bool bvh_box_hit(float lox, float hix, float loy, float hiy, float loz, float hiz, const BvhRay& r, float tmax,
-                       float* t_near) {
+// Entry and exit distances of a box; the box is met when t_near <= t_far.
+PN_FN bool bvh_box_hit(const float* xy, float zlo, float zhi, const BvhRay& r, float tmax, float* t_near) {
   constexpr float kWiden = 1.f + 2.f * 3.58e-7f;  // 1 + 2 gamma(3), gamma(n) = n u / (1 - n u), u = 2^-24
-  const float x0 = (lox - r.o.x) * r.inv_d.x, x1 = (hix - r.o.x) * r.inv_d.x;
-  const float y0 = (loy - r.o.y) * r.inv_d.y, y1 = (hiy - r.o.y) * r.inv_d.y;
-  const float z0 = (loz - r.o.z) * r.inv_d.z, z1 = (hiz - r.o.z) * r.inv_d.z;
+  const float x0 = (xy[0] - r.o.x) * r.inv_d.x, x1 = (xy[1] - r.o.x) * r.inv_d.x;
+  const float y0 = (xy[2] - r.o.y) * r.inv_d.y, y1 = (xy[3] - r.o.y) * r.inv_d.y;
+  const float z0 = (zlo - r.o.z) * r.inv_d.z, z1 = (zhi - r.o.z) * r.inv_d.z;
   const float tn = pn_max(pn_max(pn_min(x0, x1), pn_min(y0, y1)), pn_max(pn_min(z0, z1), 0.f));
   const float tf = pn_min(pn_min(pn_max(x0, x1), pn_max(y0, y1)), pn_min(pn_max(z0, z1), tmax));
   *t_near = tn;
@@ -63,27 +60,18 @@ PN_FN bool bvh_box_hit(float lox, float hix, float loy, float hiy, float loz, fl
 
 PN_FN BvhNode bvh_load_node(const BvhNode* nodes, int32_t i) {
 #if defined(__CUDA_ARCH__)
-  BvhNode n;
   const float4* p = reinterpret_cast<const float4*>(nodes + i);
-  float4* q = reinterpret_cast<float4*>(&n);
-#pragma unroll
-  for (int k = 0; k < 7; ++k) q[k] = __ldg(p + k);
+  const float4 a = __ldg(p), b = __ldg(p + 1), c = __ldg(p + 2);
+  const int4 d = __ldg(reinterpret_cast<const int4*>(p + 3));
+  BvhNode n;
+  n.c0[0] = a.x, n.c0[1] = a.y, n.c0[2] = a.z, n.c0[3] = a.w;
+  n.c1[0] = b.x, n.c1[1] = b.y, n.c1[2] = b.z, n.c1[3] = b.w;
+  n.z[0] = c.x, n.z[1] = c.y, n.z[2] = c.z, n.z[3] = c.w;
+  n.child[0] = d.x, n.child[1] = d.y;
   return n;
 #else
   return nodes[i];
 #endif
-}
-
-// Orders two (distance, reference) pairs, nearer first.
-PN_FN void bvh_order(float& ta, int32_t& ca, float& tb, int32_t& cb) {
-  if (tb < ta) {
-    const float t = ta;
-    ta = tb;
-    tb = t;
-    const int32_t c = ca;
-    ca = cb;
-    cb = c;
-  }
 }
 
 PN_FN void bvh_load_triangle(const BvhTriangle* tris, uint32_t i, Vec3* p0, Vec3* p1, Vec3* p2, uint32_t* prim) {
@@ -109,11 +97,7 @@ PN_FN void bvh_load_triangle(const BvhTriangle* tris, uint32_t i, Vec3* p0, Vec3
 template <bool kAnyHit>
 PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray, float tmax, HitRecord* hit) {
   if (bvh.num_items == 0) return false;
-  // Entries: a reference and the distance at which the ray enters its box; an
-  // entry whose box the ray enters beyond the closest hit found since is
-  // skipped when popped.
   int32_t stack[kBvhStackSize];
-  float stack_t[kBvhStackSize];
   int sp = 0;
   int inst_sp = -1;   // stack depth at which the current instance was entered; -1: top level
   uint32_t inst = 0;  // the current instance (index into bvh.instances) when inst_sp >= 0
@@ -123,32 +107,19 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
   bool found = false;
   int32_t ref = bvh.root;
   for (;;) {
-    // Inner nodes: on to the nearest child the ray meets; the others onto the
-    // stack, farthest first. Children missed (or missing) sort last with
-    // distance infinity (a sorting network: no indexing by variables).
+    // Inner nodes: on to the nearer child the ray meets, the other onto the stack.
     while (ref >= 0) {
       const BvhNode n = bvh_load_node(bvh.nodes, ref);
-      constexpr float kMissed = __builtin_huge_valf();
-      float t[kBvhWidth];
-      int32_t c[kBvhWidth];
-#if defined(__CUDA_ARCH__)
-#pragma unroll
-#endif
-      for (int k = 0; k < kBvhWidth; ++k) {
-        float tk;
-        const bool h = bvh_box_hit(n.lo_x[k], n.hi_x[k], n.lo_y[k], n.hi_y[k], n.lo_z[k], n.hi_z[k], r, best.t, &tk);
-        t[k] = (h && n.child[k] != kBvhPop) ? tk : kMissed;
-        c[k] = n.child[k];
+      float t0, t1;
+      const bool h0 = bvh_box_hit(n.c0, n.z[0], n.z[1], r, best.t, &t0);
+      const bool h1 = bvh_box_hit(n.c1, n.z[2], n.z[3], r, best.t, &t1);
+      if (h0 && h1) {
+        const bool far0 = t1 < t0;
+        ref = far0 ? n.child[1] : n.child[0];
+        stack[sp++] = far0 ? n.child[0] : n.child[1];
+      } else {
+        ref = h0 ? n.child[0] : (h1 ? n.child[1] : kBvhPop);
       }
-      bvh_order(t[0], c[0], t[1], c[1]);
-      bvh_order(t[2], c[2], t[3], c[3]);
-      bvh_order(t[0], c[0], t[2], c[2]);
-      bvh_order(t[1], c[1], t[3], c[3]);
-      bvh_order(t[1], c[1], t[2], c[2]);
-      if (t[3] < kMissed) stack_t[sp] = t[3], stack[sp++] = c[3];
-      if (t[2] < kMissed) stack_t[sp] = t[2], stack[sp++] = c[2];
-      if (t[1] < kMissed) stack_t[sp] = t[1], stack[sp++] = c[1];
-      ref = t[0] < kMissed ? c[0] : kBvhPop;
     }
     if (ref != kBvhPop) {
       const uint32_t first = bvh_leaf_first(ref);
@@ -156,10 +127,10 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
         const uint32_t item = bvh.items[first];
         if (item & kBvhItemSphere) {
           const uint32_t s = item & ~kBvhItemSphere;
-          const float* sc = bvh.spheres + 4 * s;
-          float ts;
-          if (intersect_sphere(ray, Vec3(sc[0], sc[1], sc[2]), sc[3], 0.f, best.t, &ts)) {
-            best.t = ts;
+          const float* c = bvh.spheres + 4 * s;
+          float t;
+          if (intersect_sphere(ray, Vec3(c[0], c[1], c[2]), c[3], 0.f, best.t, &t)) {
+            best.t = t;
             best.instance = kSphereInstance;
             best.prim = s;
             best.b1 = best.b2 = 0.f;
@@ -181,13 +152,13 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
           Vec3 p0, p1, p2;
           uint32_t prim;
           bvh_load_triangle(bvh.triangles, first + i, &p0, &p1, &p2, &prim);
-          float th, b1, b2;
-          if (!intersect_triangle(r.tri, p0, p1, p2, 0.f, best.t, &th, &b1, &b2)) continue;
+          float t, b1, b2;
+          if (!intersect_triangle(r.tri, p0, p1, p2, 0.f, best.t, &t, &b1, &b2)) continue;
           if (bvh.any_alpha_masked) {
             const BvhInstance& bi = bvh.instances[inst];
             if (bi.alpha_masked && alpha_discards(*scene, scene->instances[bi.instance], prim, b1, b2)) continue;
           }
-          best.t = th;
+          best.t = t;
           best.instance = bvh.instances[inst].instance;
           best.prim = prim;
           best.b1 = b1;
@@ -201,19 +172,13 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
         if (stop) break;
       }
     }
-    // Next entry (leaving the instance once its subtree is done), skipping
-    // those the closest hit so far lies before.
-    ref = kBvhPop;
-    while (ref == kBvhPop) {
-      if (sp == inst_sp) {
-        inst_sp = -1;
-        r = make_bvh_ray(ray.o, ray.d);
-      }
-      if (sp == 0) break;
-      --sp;
-      if (kAnyHit || stack_t[sp] <= best.t) ref = stack[sp];
+    // Next entry; leave the instance once its subtree is done.
+    if (sp == inst_sp) {
+      inst_sp = -1;
+      r = make_bvh_ray(ray.o, ray.d);
     }
-    if (ref == kBvhPop) break;
+    if (sp == 0) break;
+    ref = stack[--sp];
   }
   if (found) *hit = best;
   return found;
