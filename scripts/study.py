@@ -994,10 +994,17 @@ def plot_many_sweep(counts, sweep, value, ylabel, title, path):
     plt.close(fig)
 
 
+def many_report_name(head):
+    """README.md for a study with many-spheres (the issue's numbers); <scene>.md for another scene run alone
+    (sponza-lanterns at its own preset), so that the two reports sit side by side."""
+    return ("README.md", "many_lights.json") if "many-spheres" in head else \
+        (f"{'-'.join(head)}.md", f"many_lights_{'-'.join(head)}.json")
+
+
 def write_many_report(args, cfg, head, sweep, bench, out_dir):
     fig_dir = os.path.join(out_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
-    env = head["many-spheres"]["power"]
+    env = next(iter(head.values()))["power"]
     info = env.get("device_info", {})
     h, sw = cfg["headline"], cfg["sweep"]
     lines = []
@@ -1007,7 +1014,10 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
       f"{datetime.date.today().isoformat()}, penumbra commit `{env.get('git_commit', 'unknown')}`, backend "
       f"**{env['backend']}** ({env['device']}" + "".join(f", {k} {v}" for k, v in info.items()) + ").\n")
     w("## What was measured\n")
-    w(f"- Scenes: {', '.join(head)} ({cfg['lights']} lights in many-spheres) at {h['width']}x{h['height']}, max depth "
+    counts = [f"{cfg['lights']} lights in many-spheres"] if "many-spheres" in head else []
+    if "sponza-lanterns" in head:
+        counts.append("320 lanterns in sponza-lanterns: 8 rows of 40")
+    w(f"- Scenes: {', '.join(head)} ({'; '.join(counts)}) at {h['width']}x{h['height']}, max depth "
       f"8, MIS power; ground truth {h['reference_spp']} spp selected by power (solid-angle); renders at 1, 2, ..., "
       f"{h['max_spp']} spp, {h['seeds']} seeds.")
     w("- Selection methods: " + ", ".join(f"`{s}`" for s in MANY_SELECTIONS) + ". `restir`: " +
@@ -1071,8 +1081,9 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
     if os.path.exists(os.path.join(out_dir, "DISCUSSION.md")):
         w("## Discussion\n")
         w("[DISCUSSION.md](DISCUSSION.md).\n")
-    write_text(os.path.join(out_dir, "README.md"), "\n".join(lines) + "\n")
-    write_text(os.path.join(out_dir, "many_lights.json"),
+    report, data = many_report_name(head)
+    write_text(os.path.join(out_dir, report), "\n".join(lines) + "\n")
+    write_text(os.path.join(out_dir, data),
                json.dumps({"headline": head, "sweep": sweep, "bench": bench, "preset": cfg}, indent=1))
 
 
@@ -1103,9 +1114,9 @@ def finish_many_lights(args, cfg, out_dir, plan_, head, sweep):
     """The many-lights part's bench runs, report and (with --check) assertions. False: a check failed."""
     head = many_group(plan_, head)
     bench = many_bench(args, cfg, out_dir) if args.only != "headline" else []
-    if "many-spheres" in head and not args.no_report:
+    if head and not args.no_report:
         write_many_report(args, cfg, head, sweep, bench, out_dir)
-        log(f"study: wrote {os.path.join(out_dir, 'README.md')}")
+        log(f"study: wrote {os.path.join(out_dir, many_report_name(head)[0])}")
     return not (args.check and "many-spheres" in head and not many_check(head, sweep))
 
 
