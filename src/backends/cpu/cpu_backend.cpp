@@ -26,6 +26,7 @@
 #include "core/geometry.h"
 #include "core/integrator.h"
 #include "core/restir.h"
+#include "core/sample_sums.h"
 #include "backends/wavefront/wavefront.h"
 
 namespace pn {
@@ -295,10 +296,10 @@ class CpuBackend final : public Backend {
           const PixelSum& ps = sums[size_t(y - y0) * tw + (x - x0)];
           const size_t o = (size_t(y) * W + x) * 3;
           for (int c = 0; c < 3; ++c) {
-            sum[o + c] += ps.s[c];
-            sum_sq[o + c] += ps.s2[c];
+            sum[o + c] += ps.sum[c];
+            sum_sq[o + c] += ps.sum_sq[c];
           }
-          if (ps.bad > 0) note_nonfinite(x, y, W, ps.bad);
+          if (ps.nonfinite > 0) note_nonfinite(x, y, W, ps.nonfinite);
         }
       return std::make_pair(done += uint64_t(tw) * th * count, total);
     });
@@ -332,20 +333,7 @@ class CpuBackend final : public Backend {
 
  private:
   // One pixel's samples, summed in sample order (the same order for every schedule).
-  struct PixelSum {
-    double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
-    uint64_t bad = 0;
-    void add(const Vec3& L) {
-      if (!is_finite(L)) {  // never let one bad sample poison a pixel silently
-        ++bad;
-        return;
-      }
-      for (int c = 0; c < 3; ++c) {
-        s[c] += L[c];
-        s2[c] += double(L[c]) * L[c];
-      }
-    }
-  };
+  using PixelSum = SampleSums<double>;
 
   static constexpr size_t kPoolPaths = 4096;
 
@@ -477,10 +465,10 @@ class CpuBackend final : public Backend {
     double* sum_sq = film.sum_sq();
     for (uint32_t p = 0; p < pixels; ++p) {
       for (int c = 0; c < 3; ++c) {
-        sum[3 * size_t(p) + c] += sums[p].s[c];
-        sum_sq[3 * size_t(p) + c] += sums[p].s2[c];
+        sum[3 * size_t(p) + c] += sums[p].sum[c];
+        sum_sq[3 * size_t(p) + c] += sums[p].sum_sq[c];
       }
-      if (sums[p].bad > 0) note_nonfinite(int(p % uint32_t(W)), int(p / uint32_t(W)), W, sums[p].bad);
+      if (sums[p].nonfinite > 0) note_nonfinite(int(p % uint32_t(W)), int(p / uint32_t(W)), W, sums[p].nonfinite);
     }
     film.add_samples(count);
   }

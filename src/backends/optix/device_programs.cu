@@ -20,6 +20,7 @@
 #include <optix.h>
 
 #include "backends/optix/launch_params.h"
+#include "backends/optix/launch_sums.h"
 #include "core/aov.h"
 #include "core/geometry.h"
 #include "core/integrator.h"
@@ -105,29 +106,16 @@ __forceinline__ __device__ void render_pixels() {
   for (uint32_t pixel = idx.y * dim.x + idx.x; pixel < pixels; pixel += threads) {
     const int px = int(pixel % width), py = int(pixel / width);
     Tracer tracer;
-    float3 sum = make_float3(0.f, 0.f, 0.f), sum_sq = make_float3(0.f, 0.f, 0.f);
-    uint32_t nonfinite = 0;
     if (p.restir_pixels) {  // restir's primary pass: one sample, its first vertex's direct light left out
       RestirPrimaryOut out{&p.restir_pixels[pixel], &p.restir_in[pixel]};
       out.pixel->L = render_sample<kFeatures>(tracer, p.scene, p.camera, settings, px, py, p.first_sample, p.seed, &out);
       p.sum[pixel] = make_float4(0.f, 0.f, 0.f, float(tracer.rays));
       continue;
     }
-    for (uint32_t i = 0; i < p.spp; ++i) {
-      Vec3 L = render_sample<kFeatures>(tracer, p.scene, p.camera, settings, px, py, p.first_sample + i, p.seed);
-      if (!is_finite(L)) {  // as on the CPU: skipped, counted, reported by the host
-        ++nonfinite;
-        continue;
-      }
-      sum.x += L.x;
-      sum.y += L.y;
-      sum.z += L.z;
-      sum_sq.x += L.x * L.x;
-      sum_sq.y += L.y * L.y;
-      sum_sq.z += L.z * L.z;
-    }
-    p.sum[pixel] = make_float4(sum.x, sum.y, sum.z, float(tracer.rays));
-    p.sum_sq[pixel] = make_float4(sum_sq.x, sum_sq.y, sum_sq.z, float(nonfinite));
+    SampleSums<float> sums;
+    for (uint32_t i = 0; i < p.spp; ++i)
+      sums.add(render_sample<kFeatures>(tracer, p.scene, p.camera, settings, px, py, p.first_sample + i, p.seed));
+    store_launch_sums(p.sum, p.sum_sq, pixel, sums, float(tracer.rays));
   }
 }
 
@@ -194,14 +182,9 @@ extern "C" __global__ void __raygen__restir_shade() {
     p.restir_history_pixels[pixel] = q;
     p.restir_history[pixel] = p.restir_in[pixel];
   }
-  const float rays = p.sum[pixel].w + float(tracer.rays);
-  if (!is_finite(L)) {  // as in render_pixels: skipped, counted
-    p.sum[pixel] = make_float4(0.f, 0.f, 0.f, rays);
-    p.sum_sq[pixel] = make_float4(0.f, 0.f, 0.f, 1.f);
-    return;
-  }
-  p.sum[pixel] = make_float4(L.x, L.y, L.z, rays);
-  p.sum_sq[pixel] = make_float4(L.x * L.x, L.y * L.y, L.z * L.z, 0.f);
+  SampleSums<float> sums;  // this launch's one sample
+  sums.add(L);
+  store_launch_sums(p.sum, p.sum_sq, pixel, sums, p.sum[pixel].w + float(tracer.rays));
 }
 
 // The denoiser's guides (core/aov.h), one thread per pixel of a W x H launch;

@@ -12,6 +12,7 @@
 #include "backends/cuda/bvh_build.h"
 #include "backends/cuda/trace_kernels.h"
 #include "backends/optix/launch_params.h"
+#include "backends/optix/launch_sums.h"
 
 namespace pn {
 namespace {
@@ -70,33 +71,21 @@ __global__ void __launch_bounds__(kBlock, 2) shade_kernel(int cur) {
 
 // The accumulation's sink: a pixel's launch sums, as render_pixels (device_programs.cu) writes them.
 struct LaunchSink {
-  float4 s, q;
+  SampleSums<float> sums;
+  float rays = 0.f;
   __device__ void begin(uint32_t pixel, bool first) {
     if (first) {
-      s = make_float4(0.f, 0.f, 0.f, 0.f);
-      q = s;
+      sums = SampleSums<float>();
+      rays = 0.f;
     } else {
-      s = WP().sum[pixel];
-      q = WP().sum_sq[pixel];
+      sums = load_launch_sums(WP().sum, WP().sum_sq, pixel, &rays);
     }
   }
-  __device__ void add(const Vec3& L, uint32_t rays) {
-    s.w += float(rays);
-    if (!is_finite(L)) {  // as render_pixels: skipped, counted
-      q.w += 1.f;
-      return;
-    }
-    s.x += L.x;
-    s.y += L.y;
-    s.z += L.z;
-    q.x += L.x * L.x;
-    q.y += L.y * L.y;
-    q.z += L.z * L.z;
+  __device__ void add(const Vec3& L, uint32_t path_rays) {
+    rays += float(path_rays);
+    sums.add(L);
   }
-  __device__ void end(uint32_t pixel) {
-    WP().sum[pixel] = s;
-    WP().sum_sq[pixel] = q;
-  }
+  __device__ void end(uint32_t pixel) { store_launch_sums(WP().sum, WP().sum_sq, pixel, sums, rays); }
 };
 
 __global__ void __launch_bounds__(kBlock) accumulate_kernel() {
