@@ -889,17 +889,20 @@ MANY_PRESETS = {
                   sets=["camera.eye=[0,0.18,-3]", "camera.target=[0,0,-2.505]", "camera.fov=30"]),
 }
 MANY_SCENES = {"many-spheres": "defaults.lights", "sponza-lanterns": None}
-# name -> scene overrides; restir is the paper's defaults (32 candidates by power, 2 spatial passes of 3 neighbours).
+# name -> scene overrides; restir is the paper's defaults (32 candidates by power, 2 spatial passes of 3 neighbours);
+# restir-bvh the same with its candidates drawn by the light BVH.
 MANY_SELECTIONS = {
     "uniform": ["render.light_selection=uniform"],
     "power": ["render.light_selection=power"],
     "bvh": ["render.light_selection=bvh"],
     "restir": ["render.light_selection=restir"],
+    "restir-bvh": ["render.light_selection=restir", 'render.restir.source="bvh"'],
     "restir-biased": ["render.light_selection=restir", "render.restir.unbiased=false"],
 }
 MANY_STRATEGIES = ["area", "solid-angle", "projected-solid-angle"]
-MANY_SWEEP_SELECTIONS = ["power", "bvh", "restir"]
-MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-biased": "#9467bd"}
+MANY_SWEEP_SELECTIONS = ["power", "bvh", "restir", "restir-bvh"]
+MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-bvh": "#17becf",
+               "restir-biased": "#9467bd"}
 
 
 def many_technique(strategy):
