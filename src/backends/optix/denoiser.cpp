@@ -11,56 +11,13 @@
 #include <optix_stubs.h>
 
 #include "backends/optix/context.h"
+#include "backends/optix/device_memory.h"
 #include "backends/optix/optix_backend.h"
 
 namespace pn {
 namespace {
 
-// One line for a failed CUDA or OptiX call (as the backend's checks say it).
-void check_cuda(cudaError_t e, const char* what) {
-  if (e == cudaSuccess) return;
-  throw std::runtime_error(std::string("denoiser: CUDA error in ") + what + ": " + cudaGetErrorName(e) + " (" +
-                           cudaGetErrorString(e) + ")");
-}
-
-void check_optix(OptixResult r, const char* what) {
-  if (r == OPTIX_SUCCESS) return;
-  throw std::runtime_error(std::string("denoiser: OptiX error in ") + what + ": " + optixGetErrorName(r) + " (" +
-                           optixGetErrorString(r) + ")");
-}
-
-#define PN_DN_CUDA(call, what) check_cuda((call), what)
-#define PN_DN_OPTIX(call, what) check_optix((call), what)
-
-// A device allocation that frees itself (errors ignored there: never throw from a destructor).
-struct DeviceMemory {
-  void* ptr = nullptr;
-  size_t size = 0;
-  DeviceMemory() = default;
-  DeviceMemory(const DeviceMemory&) = delete;
-  DeviceMemory& operator=(const DeviceMemory&) = delete;
-  ~DeviceMemory() { release(); }
-  void release() {
-    if (ptr) cudaFree(ptr);
-    ptr = nullptr;
-    size = 0;
-  }
-  void ensure(size_t bytes, const char* what) {
-    if (size >= bytes && ptr) return;
-    release();
-    const cudaError_t e = cudaMalloc(&ptr, std::max<size_t>(bytes, 16));
-    if (e != cudaSuccess) {
-      ptr = nullptr;
-      cudaGetLastError();
-      throw std::runtime_error(std::string("denoiser: cannot allocate ") + std::to_string(bytes) +
-                               " bytes of GPU memory for " + what + " (" + cudaGetErrorName(e) + ")");
-    }
-    size = std::max<size_t>(bytes, 16);
-  }
-  CUdeviceptr dptr() const { return reinterpret_cast<CUdeviceptr>(ptr); }
-};
-
-OptixImage2D float4_image(const DeviceMemory& m, int width, int height) {
+OptixImage2D float4_image(const optix::DeviceBuffer& m, int width, int height) {
   OptixImage2D img = {};
   img.data = m.dptr();
   img.width = unsigned(width);
@@ -82,14 +39,14 @@ struct Denoiser::Impl {
   int width = 0, height = 0;  // of the current setup
   OptixDenoiserSizes sizes = {};
   size_t scratch_bytes = 0;
-  DeviceMemory state, scratch, input, albedo, normal, output, intensity, average;
+  optix::DeviceBuffer state, scratch, input, albedo, normal, output, intensity, average;
   std::vector<float4> staging;
   float ms = 0.f;
 
   ~Impl() {
     cudaSetDevice(device);
     if (stream) cudaStreamSynchronize(stream);
-    for (DeviceMemory* m : {&state, &scratch, &input, &albedo, &normal, &output, &intensity, &average}) m->release();
+    for (optix::DeviceBuffer* m : {&state, &scratch, &input, &albedo, &normal, &output, &intensity, &average}) m->release();
     if (denoiser) optixDenoiserDestroy(denoiser);
     if (context) optixDeviceContextDestroy(context);
     if (start) cudaEventDestroy(start);
@@ -102,8 +59,7 @@ struct Denoiser::Impl {
   // enough for setup, inference, intensity and average colour.
   void setup(int w, int h) {
     if (w == width && h == height) return;
-    PN_DN_OPTIX(optixDenoiserComputeMemoryResources(denoiser, unsigned(w), unsigned(h), &sizes),
-                "optixDenoiserComputeMemoryResources");
+    PN_OPTIX(optixDenoiserComputeMemoryResources(denoiser, unsigned(w), unsigned(h), &sizes));
     scratch_bytes = std::max({sizes.withoutOverlapScratchSizeInBytes, sizes.computeIntensitySizeInBytes,
                               sizes.computeAverageColorSizeInBytes});
     state.ensure(sizes.stateSizeInBytes, "the denoiser's state");
@@ -113,21 +69,19 @@ struct Denoiser::Impl {
     albedo.ensure(image, "the albedo guide");
     normal.ensure(image, "the normal guide");
     output.ensure(image, "the denoised image");
-    PN_DN_OPTIX(optixDenoiserSetup(denoiser, stream, unsigned(w), unsigned(h), state.dptr(), sizes.stateSizeInBytes,
-                                   scratch.dptr(), scratch_bytes),
-                "optixDenoiserSetup");
+    PN_OPTIX(optixDenoiserSetup(denoiser, stream, unsigned(w), unsigned(h), state.dptr(), sizes.stateSizeInBytes,
+                                   scratch.dptr(), scratch_bytes));
     width = w;
     height = h;
   }
 
   // RGB floats -> a float4 device image (w = 0).
-  void upload(const std::vector<float>& rgb, DeviceMemory& to) {
+  void upload(const std::vector<float>& rgb, optix::DeviceBuffer& to) {
     const size_t pixels = size_t(width) * size_t(height);
     staging.resize(pixels);
     for (size_t i = 0; i < pixels; ++i) staging[i] = make_float4(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2], 0.f);
-    PN_DN_CUDA(cudaMemcpyAsync(to.ptr, staging.data(), pixels * sizeof(float4), cudaMemcpyHostToDevice, stream),
-               "cudaMemcpyAsync");
-    PN_DN_CUDA(cudaStreamSynchronize(stream), "cudaStreamSynchronize");  // staging is reused
+    PN_CUDA(cudaMemcpyAsync(to.as<void>(), staging.data(), pixels * sizeof(float4), cudaMemcpyHostToDevice, stream));
+    PN_CUDA(cudaStreamSynchronize(stream));  // staging is reused
   }
 };
 
@@ -136,11 +90,11 @@ Denoiser::Denoiser(int device) : impl_(std::make_unique<Impl>()) {
   if (!optix_available(&why)) throw std::runtime_error("denoiser: " + why);
   Impl& d = *impl_;
   d.device = device;
-  PN_DN_CUDA(cudaSetDevice(device), "cudaSetDevice");
-  PN_DN_CUDA(cudaFree(nullptr), "cudaFree");  // the primary context
-  PN_DN_CUDA(cudaStreamCreateWithFlags(&d.stream, cudaStreamNonBlocking), "cudaStreamCreateWithFlags");
-  PN_DN_CUDA(cudaEventCreate(&d.start), "cudaEventCreate");
-  PN_DN_CUDA(cudaEventCreate(&d.end), "cudaEventCreate");
+  PN_CUDA(cudaSetDevice(device));
+  PN_CUDA(cudaFree(nullptr));  // the primary context
+  PN_CUDA(cudaStreamCreateWithFlags(&d.stream, cudaStreamNonBlocking));
+  PN_CUDA(cudaEventCreate(&d.start));
+  PN_CUDA(cudaEventCreate(&d.end));
   // OptiX's errors and warnings while the denoiser is made (the reason an
   // OPTIX_ERROR_INTERNAL_ERROR alone does not give), kept for the message.
   std::string log;
@@ -151,7 +105,7 @@ Denoiser::Denoiser(int device) : impl_(std::make_unique<Impl>()) {
   };
   co.logCallbackData = &log;
   co.logCallbackLevel = 3;  // errors and warnings
-  PN_DN_OPTIX(optixDeviceContextCreate(nullptr, &co, &d.context), "optixDeviceContextCreate");
+  PN_OPTIX(optixDeviceContextCreate(nullptr, &co, &d.context));
   OptixDenoiserOptions o = {};
   o.guideAlbedo = 1;
   o.guideNormal = 1;
@@ -185,20 +139,18 @@ std::vector<float> Denoiser::denoise(int width, int height, const std::vector<fl
       guides.albedo.size() != n || guides.normal.size() != n)
     throw std::logic_error("denoiser: image and guides differ in size");
   Impl& d = *impl_;
-  PN_DN_CUDA(cudaSetDevice(d.device), "cudaSetDevice");
+  PN_CUDA(cudaSetDevice(d.device));
   d.setup(width, height);
   d.upload(rgb, d.input);
   d.upload(guides.albedo, d.albedo);
   d.upload(guides.normal, d.normal);
 
   const OptixImage2D input = float4_image(d.input, width, height);
-  PN_DN_CUDA(cudaEventRecord(d.start, d.stream), "cudaEventRecord");
-  PN_DN_OPTIX(optixDenoiserComputeIntensity(d.denoiser, d.stream, &input, d.intensity.dptr(), d.scratch.dptr(),
-                                            d.scratch_bytes),
-              "optixDenoiserComputeIntensity");
-  PN_DN_OPTIX(optixDenoiserComputeAverageColor(d.denoiser, d.stream, &input, d.average.dptr(), d.scratch.dptr(),
-                                               d.scratch_bytes),
-              "optixDenoiserComputeAverageColor");
+  PN_CUDA(cudaEventRecord(d.start, d.stream));
+  PN_OPTIX(optixDenoiserComputeIntensity(d.denoiser, d.stream, &input, d.intensity.dptr(), d.scratch.dptr(),
+                                            d.scratch_bytes));
+  PN_OPTIX(optixDenoiserComputeAverageColor(d.denoiser, d.stream, &input, d.average.dptr(), d.scratch.dptr(),
+                                               d.scratch_bytes));
   OptixDenoiserParams params = {};
   params.hdrIntensity = d.intensity.dptr();
   params.hdrAverageColor = d.average.dptr();
@@ -211,17 +163,15 @@ std::vector<float> Denoiser::denoise(int width, int height, const std::vector<fl
   layer.input = input;
   layer.output = float4_image(d.output, width, height);
   layer.type = OPTIX_DENOISER_AOV_TYPE_BEAUTY;
-  PN_DN_OPTIX(optixDenoiserInvoke(d.denoiser, d.stream, &params, d.state.dptr(), d.sizes.stateSizeInBytes, &guide,
-                                  &layer, 1, 0, 0, d.scratch.dptr(), d.scratch_bytes),
-              "optixDenoiserInvoke");
-  PN_DN_CUDA(cudaEventRecord(d.end, d.stream), "cudaEventRecord");
+  PN_OPTIX(optixDenoiserInvoke(d.denoiser, d.stream, &params, d.state.dptr(), d.sizes.stateSizeInBytes, &guide,
+                                  &layer, 1, 0, 0, d.scratch.dptr(), d.scratch_bytes));
+  PN_CUDA(cudaEventRecord(d.end, d.stream));
   const size_t pixels = size_t(width) * size_t(height);
   d.staging.resize(pixels);
-  PN_DN_CUDA(cudaMemcpyAsync(d.staging.data(), d.output.ptr, pixels * sizeof(float4), cudaMemcpyDeviceToHost,
-                             d.stream),
-             "cudaMemcpyAsync");
-  PN_DN_CUDA(cudaStreamSynchronize(d.stream), "cudaStreamSynchronize");
-  PN_DN_CUDA(cudaEventElapsedTime(&d.ms, d.start, d.end), "cudaEventElapsedTime");
+  PN_CUDA(cudaMemcpyAsync(d.staging.data(), d.output.as<void>(), pixels * sizeof(float4), cudaMemcpyDeviceToHost,
+                             d.stream));
+  PN_CUDA(cudaStreamSynchronize(d.stream));
+  PN_CUDA(cudaEventElapsedTime(&d.ms, d.start, d.end));
   std::vector<float> out(n);
   for (size_t i = 0; i < pixels; ++i) {
     out[3 * i] = d.staging[i].x;

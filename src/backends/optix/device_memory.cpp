@@ -17,7 +17,8 @@ namespace optix {
   cudaMemGetInfo(&free_b, &total_b);
   throw std::runtime_error("out of GPU memory: " + std::to_string(bytes) + " bytes (" + format_bytes(uint64_t(bytes)) +
                            ") requested for " + what + ", " + format_bytes(uint64_t(free_b)) + " of " +
-                           format_bytes(uint64_t(total_b)) + " free; scene: " + scene.describe());
+                           format_bytes(uint64_t(total_b)) + " free" +
+                           (scene.empty() ? std::string() : "; scene: " + scene.describe()));
 }
 
 DeviceEstimate estimate_device_memory(const Scene& scene) {

@@ -20,9 +20,11 @@
 namespace pn {
 namespace optix {
 
-// What out-of-memory messages say about the scene.
+// What out-of-memory messages say about the scene (nothing when it is empty:
+// a buffer not of the scene's, the denoiser's).
 struct SceneSize {
   size_t triangles = 0, meshes = 0, instances = 0, spheres = 0;
+  bool empty() const { return triangles == 0 && meshes == 0 && instances == 0 && spheres == 0; }
   std::string describe() const {
     auto n = [](size_t v, const char* one, const char* many) { return std::to_string(v) + " " + (v == 1 ? one : many); };
     return n(triangles, "triangle", "triangles") + " (" + n(meshes, "mesh", "meshes") + ", " +
@@ -78,6 +80,12 @@ class DeviceBuffer {
     }
     check_cuda(e, "cudaMalloc");
     size_ = bytes;
+  }
+  // Grows to at least `bytes` (16 or more), keeping an allocation that is large
+  // enough already (the denoiser's buffers, sized by the image).
+  void ensure(size_t bytes, const char* what, const SceneSize& scene = SceneSize()) {
+    if (ptr_ && size_ >= bytes) return;
+    alloc(bytes < 16 ? 16 : bytes, what, scene);
   }
   template <class T>
   void upload(const std::vector<T>& v, const char* what, const SceneSize& scene) {
