@@ -149,6 +149,7 @@ bool memory_ok(int w, int h, bool is_float, std::string* error) {
 // assertions on, and stb's Huffman decoder asserts (aborts the process) on a
 // malformed code table, which CI's fuzz_image found; libjpeg reports every
 // error through its error manager, which returns here by longjmp.
+
 // What stb_image takes for a JPEG (its first marker SOI, after any 0xFF fill
 // bytes) goes to libjpeg, which refuses the fill bytes in one line.
 bool is_jpeg(const uint8_t* d, size_t n) {

@@ -1,8 +1,8 @@
 // The cuda traversal's BVH, built on the host: Embree 3's SAH builder
 // (rtcBuildBVH, RTC_BUILD_QUALITY_HIGH, spatial splits in the meshes' trees)
-// makes a binary tree per mesh and one over the instances and spheres; they are flattened into bvh_layout.h's arrays. The
-// same arrays are traced on the CPU by the tests and uploaded as they are for the
-// GPU (trace_kernels.h).
+// makes a binary tree per mesh and one over the instances and spheres; they
+// are flattened into bvh_layout.h's arrays. The same arrays are traced on the
+// CPU by the tests and uploaded as they are for the GPU (trace_kernels.h).
 #pragma once
 
 #include <cstdint>
