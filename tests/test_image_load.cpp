@@ -129,7 +129,8 @@ TEST(ImageLoad, BrokenJpegsAreRefusedInOneLine) {
     EXPECT_TRUE(img.texels.empty());
   }
   // fuzz_image's input on which Debian's stb_image read out of bounds (ASan).
-  const std::string path = std::string(PENUMBRA_TEST_DATA) + "/../fuzz/regressions/image/jpeg-stb-reads-out-of-bounds.jpg";
+  const std::string path =
+      std::string(PENUMBRA_TEST_DATA) + "/../fuzz/regressions/image/jpeg-stb-reads-out-of-bounds.jpg";
   std::ifstream in(path, std::ios::binary);
   ASSERT_TRUE(in) << path;
   const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

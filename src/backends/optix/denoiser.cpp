@@ -46,7 +46,8 @@ struct Denoiser::Impl {
   ~Impl() {
     cudaSetDevice(device);
     if (stream) cudaStreamSynchronize(stream);
-    for (optix::DeviceBuffer* m : {&state, &scratch, &input, &albedo, &normal, &output, &intensity, &average}) m->release();
+    for (optix::DeviceBuffer* m : {&state, &scratch, &input, &albedo, &normal, &output, &intensity, &average})
+      m->release();
     if (denoiser) optixDenoiserDestroy(denoiser);
     if (context) optixDeviceContextDestroy(context);
     if (start) cudaEventDestroy(start);
