@@ -21,7 +21,8 @@
 #      list that `penumbra scenes` does not list is skipped with a note;
 #   3. light selection (issue 14): every method of GPU_CHECK_SELECTIONS
 #      (uniform, bvh, restir unbiased with spatial reuse, restir without reuse,
-#      restir with BVH candidates, the BIASED restir: CPU and GPU must agree on
+#      restir with BVH candidates, restir with pairwise MIS, the BIASED restir:
+#      CPU and GPU must agree on
 #      its expectation too) on GPU_CHECK_SELECTION_SCENES (default many-spheres
 #      at 2000 lights, sponza-lanterns, glossy: the environment beside the
 #      light BVH), CPU against GPU with independent seeds, and bvh and restir
@@ -136,7 +137,7 @@ done
 # 3. Light selection: every method, CPU against GPU (solid-angle, MIS power).
 echo "== light selection: CPU vs GPU"
 # method[:extra args, comma-separated]: the name is the spec with ':' and ',' and '=' made '_'.
-selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-biased restir:--restir-temporal"}
+selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-biased restir:--restir-temporal"}
 selection_scenes=${GPU_CHECK_SELECTION_SCENES:-"many-spheres sponza-lanterns glossy"}
 for scene in $selection_scenes; do
   if ! listed "$scene"; then echo "skip: $scene is not a built-in scene of this build"; continue; fi

@@ -563,6 +563,13 @@ TEST(Restir, SpatialReuseIsUnbiasedWhereNeighboursSeeOtherLights) {
   const double unbiased = z2(restir_frames(field, Checkerboard{&field}, rs, 3000), &beyond);
   EXPECT_LT(unbiased, 1.5);
   EXPECT_EQ(beyond, 0);
+  rs.pairwise = 1;  // pairwise MIS: unbiased too
+  int beyond_pairwise = 0;
+  const double pairwise = z2(restir_frames(field, Checkerboard{&field}, rs, 3000), &beyond_pairwise);
+  EXPECT_LT(pairwise, 1.5);
+  EXPECT_EQ(beyond_pairwise, 0);
+  std::printf("[          ] checkerboard visibility, pairwise MIS: mean z^2 %.2f\n", pairwise);
+  rs.pairwise = 0;
   rs.unbiased = 0;
   int beyond_biased = 0;
   const double biased = z2(restir_frames(field, Checkerboard{&field}, rs, 3000), &beyond_biased);
@@ -608,7 +615,7 @@ TEST(Restir, TemporalReuseIsUnbiasedAndLowersTheVariance) {
 
 // Spatial reuse near a large sphere light: a point near the silhouette of the cap a pixel's cone samples is
 // seen almost edge-on there (small target) and frontally from a neighbour (large target). The generalized
-// balance heuristic (core/restir.h) bounds what reuse can make of it: one pass gives each pixel at most
+// balance heuristic and pairwise MIS (core/restir.h) bound what reuse can make of it: one pass gives each pixel at most
 // sum_i (M_i / M_q) S_i, S_i the neighbours' own estimates (luminance); the paper's 1/Z combination had no such
 // bound (a weight p_hat_q(y) / p_hat_i(y), unbounded). Projected solid angle makes every pixel's own estimate
 // exact (zero variance: f cos / pdf is constant), so the bound reads: no frame of any pixel above
@@ -623,7 +630,9 @@ TEST(Restir, SpatialReuseNearALargeSphereIsBoundedAndUnbiased) {
   field.cdf = {0.f, 1.f};
   field.bvh = build_light_bvh(field.lights, {1.f});
   const int frames = 4000;
+  for (uint32_t pairwise : {0u, 1u})
   for (Strategy strategy : {Strategy::SolidAngle, Strategy::ProjectedSolidAngle}) {
+    SCOPED_TRACE(pairwise ? "pairwise MIS" : "generalized balance heuristic");
     RestirSettings rs;
     rs.candidates = 4;
     rs.spatial_passes = 0;
@@ -631,6 +640,7 @@ TEST(Restir, SpatialReuseNearALargeSphereIsBoundedAndUnbiased) {
     rs.spatial_passes = 1;
     rs.neighbors = 3;
     rs.radius = 3.f;
+    rs.pairwise = pairwise;
     double largest = 0;
     const auto reused = restir_frames(field, NeverOccluded{}, rs, frames, strategy, &largest);
     double exact_max = 0, z2 = 0;
@@ -645,8 +655,9 @@ TEST(Restir, SpatialReuseNearALargeSphereIsBoundedAndUnbiased) {
       for (const auto& e : alone) EXPECT_LT(e.std_error(), 1e-4 * e.mean()) << "projected solid angle is not exact";
       EXPECT_LE(largest, (1 + rs.neighbors) * exact_max * 1.001);
     }
-    std::printf("[          ] %s near a large sphere: largest frame %.3g (exact irradiances up to %.3g); mean z^2 "
-                "%.2f against no reuse\n", strategy_name(strategy), largest, exact_max, z2);
+    std::printf("[          ] %s%s near a large sphere: largest frame %.3g (exact irradiances up to %.3g); mean z^2 "
+                "%.2f against no reuse\n", strategy_name(strategy), pairwise ? " (pairwise)" : "", largest, exact_max,
+                z2);
   }
 }
 
@@ -699,6 +710,9 @@ TEST(ManyLights, BadScatterAndRestirSettingsNameTheirField) {
   expect_scene_error(with("/render", {{"restir", {{"candidates", 0}}}}), "render.restir.candidates");
   expect_scene_error(with("/render", {{"restir", {{"source", "restir"}}}}), "render.restir.source");
   expect_scene_error(with("/render", {{"restir", {{"unbiased", 1}}}}), "render.restir.unbiased");
+  expect_scene_error(with("/render", {{"restir", {{"pairwise", "yes"}}}}), "render.restir.pairwise");
+  expect_scene_error(with("/render", {{"restir", {{"pairwise", true}, {"unbiased", false}}}}),
+                     "render.restir.pairwise");
   expect_scene_error(with("/render", {{"restir", {{"neighbors", 99}}}}), "render.restir.neighbors");
   expect_scene_error(with("/render", {{"restir", {{"radius", 0}}}}), "render.restir.radius");
   expect_scene_error(with("/render", {{"restir", {{"temporal", 1}}}}), "render.restir.temporal");

@@ -178,6 +178,7 @@ TEST(ManyLights, SelectionMethodsAgreeWithPower) {
       {"restir", {}},                                                         // unbiased, 2 spatial passes
       {"restir", {"render.restir.spatial_passes=0"}},                         // candidates only
       {"restir", {"render.restir.source=bvh", "render.restir.candidates=8"}},
+      {"restir", {"render.restir.pairwise=true"}},                           // pairwise MIS in the reuse
       {"restir", {"render.mis=none", "render.strategy=area"}},
   };
   uint32_t seed = 10;

@@ -38,6 +38,8 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
   g->add_flag("--restir-biased", o->restir_biased,
               "BIASED combination (the paper's: no visibility in the reuse, Z = sum of M): cheaper, darker where "
               "neighbours see other lights");
+  g->add_flag("--restir-pairwise", o->restir_pairwise,
+              "Pairwise MIS in the unbiased reuse: 2k shadow rays per pixel and pass instead of k^2 + k");
   g->add_flag("--restir-temporal", o->restir_temporal,
               "Temporal reuse: each sample's reservoirs also combine the same pixel's final ones of the previous "
               "sample (the camera is static: a progressive render, the viewer until the view changes)");
@@ -95,6 +97,7 @@ void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::st
     overrides->push_back("render.restir.radius=" + std::to_string(o.restir_radius));
   if (!o.restir_source.empty()) overrides->push_back("render.restir.source=\"" + o.restir_source + "\"");
   if (o.restir_biased) overrides->push_back("render.restir.unbiased=false");
+  if (o.restir_pairwise) overrides->push_back("render.restir.pairwise=true");
   if (o.restir_temporal) overrides->push_back("render.restir.temporal=true");
   if (o.restir_temporal_cap != -std::numeric_limits<double>::infinity())
     overrides->push_back("render.restir.temporal_cap=" + std::to_string(o.restir_temporal_cap));

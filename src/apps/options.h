@@ -19,6 +19,7 @@ struct IntegratorOptions {
   double restir_radius = -std::numeric_limits<double>::infinity();
   std::string restir_source;
   bool restir_biased = false;
+  bool restir_pairwise = false;
   bool restir_temporal = false;
   double restir_temporal_cap = -std::numeric_limits<double>::infinity();  // unset
 };

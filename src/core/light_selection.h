@@ -84,6 +84,7 @@ struct RestirSettings {
   LightSelection source = LightSelection::Power;
   uint32_t temporal = 0;      // 1: temporal reuse between successive samples of a static camera
   float temporal_cap = 20.f;  // the history's M at most this times the new reservoir's
+  uint32_t pairwise = 0;      // 1 (unbiased only): pairwise MIS in the reuse, 2k shadow rays a pass, not k^2 + k
 };
 constexpr uint32_t kMaxRestirCandidates = 4096;
 constexpr uint32_t kMaxRestirPasses = 16;

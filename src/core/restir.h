@@ -31,7 +31,9 @@
 //     occluded (visibility reuse), and the final sample is known to be visible
 //     (no shadow ray when shading). Exactly unbiased for any number of passes,
 //     with bounded weights; n^2 - n shadow rays per pixel and pass (n = 1 + the
-//     neighbours found). The paper's own unbiased combination (1/Z, Algorithm
+//     neighbours found). With `pairwise`: pairwise MIS (restir_combine_pairwise),
+//     also exactly unbiased and bounded, 2 (n - 1) shadow rays per pixel and
+//     pass. The paper's own unbiased combination (1/Z, Algorithm
 //     6) was tried first: also unbiased, but a sample whose target is small at
 //     its own pixel and large at q (a point near a sphere light's silhouette,
 //     drawn by the cone) gave fireflies that did not average out (measured on
@@ -76,12 +78,71 @@ PN_FN bool restir_similar(const RestirPixel& q, const RestirPixel& n) {
   return dot(q.bsdf.frame.n, n.bsdf.frame.n) >= 0.906307787f && std::fabs(n.t - q.t) <= 0.1f * q.t;
 }
 
+// The shadowed target at pixel `at` of reservoir sample y: 0 where y is occluded from it.
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
+PN_HD float restir_shadowed_target(const Tracer& tracer, const SceneView& scene, const RestirPixel& at,
+                                   const LightPoint& y) {
+  const TargetEval t = restir_target<kFeatures>(scene, at.bsdf, at.p, at.wo, y);
+  if (t.p_hat > 0.f && !light_visible(tracer, at.p, at.bsdf.ng, t.wi, y.y, y.infinite != 0)) return 0.f;
+  return t.p_hat;
+}
+
+// Pairwise MIS (Bitterli 2022, ch. 9; the defensive form with confidence
+// weights of Wyman et al. 2023): q's own reservoir is the canonical technique c,
+// and each of the k = n - 1 neighbours is weighed against c alone, as a pair
+// that holds 1/k of the total weight:
+//   m_i(y) = (1/k) M_i p_i(y) / (M_i p_i(y) + (M_c/k) p_c(y)),
+//   m_c(y) = (1/k) sum_i (M_c/k) p_c(y) / (M_i p_i(y) + (M_c/k) p_c(y)),
+// p_j the shadowed target at pixel j. The weights sum to 1 wherever p_c(y) > 0
+// (each pair's two terms sum to 1/k), so the combination is unbiased, and with
+// equal confidences and targets every reservoir gets 1/n, as the generalized
+// balance heuristic. Bounded as that one: m_i p_c W_i <= (M_i / M_c) p_i W_i.
+// Shadow rays: 2k per pixel and pass (each neighbour's sample seen from q, q's
+// sample seen from each neighbour), not k^2 + k.
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
+PN_HD Reservoir restir_combine_pairwise(const Tracer& tracer, const SceneView& scene, const RestirPixel* const* at,
+                                        const Reservoir* const* in, uint32_t n, Rng& rng) {
+  Reservoir r;
+  for (uint32_t i = 0; i < n; ++i) r.M += in[i]->M;
+  const Reservoir& c = *in[0];
+  if (n == 1) {
+    if (c.W > 0.f && r.update(c.s, c.p_hat * c.W, rng.uniform())) r.p_hat = c.p_hat;
+    if (r.w_sum > 0.f) r.W = r.w_sum / r.p_hat;
+    return r;
+  }
+  const float k = float(n - 1);
+  const float mc = c.M / k;  // the canonical's confidence in each pair
+  if (c.W > 0.f) {  // q's own sample: its weight against every neighbour
+    float m_c = 0.f;
+    for (uint32_t i = 1; i < n; ++i) {
+      const float p_i = restir_shadowed_target<kFeatures>(tracer, scene, *at[i], c.s);
+      const float den = in[i]->M * p_i + mc * c.p_hat;
+      m_c += den > 0.f ? mc * c.p_hat / den : 0.f;
+    }
+    m_c /= k;
+    if (r.update(c.s, m_c * c.p_hat * c.W, rng.uniform())) r.p_hat = c.p_hat;
+  }
+  for (uint32_t i = 1; i < n; ++i) {  // each neighbour's sample, against q's alone
+    const Reservoir& ri = *in[i];
+    if (!(ri.W > 0.f)) continue;
+    const float p_c = restir_shadowed_target<kFeatures>(tracer, scene, *at[0], ri.s);
+    if (!(p_c > 0.f)) continue;
+    const float num = ri.M * ri.p_hat;  // its own target; visible, as W > 0
+    const float m_i = num / (num + mc * p_c) / k;
+    if (r.update(ri.s, m_i * p_c * ri.W, rng.uniform())) r.p_hat = p_c;
+  }
+  if (r.w_sum > 0.f) r.W = r.w_sum / r.p_hat;
+  return r;
+}
+
 // Combines n reservoirs: in[i] holds a sample found at pixel at[i]; at[0] and
 // in[0] are q's own, where the result is used (see the top of this file).
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Reservoir restir_combine(const Tracer& tracer, const SceneView& scene, bool unbiased,
-                               const RestirPixel* const* at, const Reservoir* const* in, uint32_t n, Rng& rng) {
+                               const RestirPixel* const* at, const Reservoir* const* in, uint32_t n, Rng& rng,
+                               bool pairwise = false) {
   const RestirPixel& q = *at[0];
+  if (unbiased && pairwise) return restir_combine_pairwise<kFeatures>(tracer, scene, at, in, n, rng);
   Reservoir r;
   float M = 0.f;
   for (uint32_t i = 0; i < n; ++i) M += in[i]->M;
@@ -102,10 +163,7 @@ PN_HD Reservoir restir_combine(const Tracer& tracer, const SceneView& scene, boo
         if (j == i) {
           p_j = ri.p_hat;  // its own target; visible, as W > 0
         } else {
-          const RestirPixel& pj = *at[j];
-          const TargetEval t = restir_target<kFeatures>(scene, pj.bsdf, pj.p, pj.wo, ri.s);
-          p_j = t.p_hat;
-          if (p_j > 0.f && !light_visible(tracer, pj.p, pj.bsdf.ng, t.wi, ri.s.y, ri.s.infinite != 0)) p_j = 0.f;
+          p_j = restir_shadowed_target<kFeatures>(tracer, scene, *at[j], ri.s);
         }
         if (j == 0) p_q = p_j;
         if (j == i) num = in[j]->M * p_j;
@@ -153,7 +211,7 @@ PN_HD Reservoir restir_spatial_reuse(const Tracer& tracer, const SceneView& scen
   const RestirPixel* at[kMaxRestirNeighbors + 1];
   const Reservoir* res[kMaxRestirNeighbors + 1];
   for (uint32_t i = 0; i < n; ++i) at[i] = &pixels[idx[i]], res[i] = &in[idx[i]];
-  return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, n, rng);
+  return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, n, rng, rs.pairwise != 0);
 }
 
 // Temporal reuse at pixel `pixel_index`: q's reservoir `current` (from the
@@ -175,7 +233,7 @@ PN_HD Reservoir restir_temporal_reuse(const Tracer& tracer, const SceneView& sce
   Rng rng = Rng::for_pass(pixel_index, sample_index, seed, kRestirTemporalPass);
   const RestirPixel* at[2] = {&q, &history_pixel};
   const Reservoir* res[2] = {&current, &h};
-  return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, 2, rng);
+  return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, 2, rng, rs.pairwise != 0);
 }
 
 // Pass 3: the direct light of q's first vertex from its reservoir, weighted by
