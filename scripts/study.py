@@ -883,7 +883,9 @@ MANY_PRESETS = {
                 sweep=dict(width=480, height=270, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096)),
     # At 24x16 every lamp is smaller than a pixel, and the pixels it covers in part escape the mask of lamp
     # pixels: the smoke runs look at the floor from below the lamps (none in view).
-    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=2, reference_chunk=512),
+    # Four seeds: with two, one unbiased method's fitted slope fell to -0.12 in the sanitizer build (restir-bvh
+    # with area sampling; -0.26 to -0.73 over pairs of seeds in the g++ build, -0.44 over twelve).
+    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=4, reference_chunk=512),
                   lights=500, counts=[10, 100, 1000],
                   sweep=dict(width=16, height=12, reference_spp=512, max_spp=16, seeds=2, reference_chunk=256),
                   sets=["camera.eye=[0,0.18,-3]", "camera.target=[0,0,-2.505]", "camera.fov=30"]),
@@ -1100,9 +1102,10 @@ def many_check(head, sweep):
         for st in MANY_STRATEGIES:
             slope = runs[sel]["strategies"][many_technique(st)]["fit_rmse_nolight"]["slope"]
             # A slope near 0 or above is what a method that does not converge gives (the 1/Z ReSTIR's fireflies:
-            # +0.08 at 1080p). At the smoke preset's 24x16 pixels, 2 seeds and 1-32 spp the fitted slope itself
-            # varies by about +-0.25 with the random numbers (g++: -0.39 to -0.56; the same study built by clang
-            # for the sanitizers: -0.23 to -0.56), hence the wide band.
+            # +0.08 at 1080p). At the smoke preset's 24x16 pixels and 1-32 spp the fitted slope itself varies
+            # with the random numbers: by about +-0.25 with 2 seeds (g++: -0.39 to -0.56; the same study built
+            # by clang for the sanitizers: -0.23 to -0.56, and restir-bvh with area sampling -0.12), less with
+            # the 4 it now has; hence the wide band.
             if not -0.85 <= slope <= -0.15:
                 failures.append(f"many-spheres {sel} {st}: slope {slope:.3f} outside [-0.85, -0.15]")
     mse = {sel: runs[sel]["strategies"][many_technique("solid-angle")]["points"][-1]["rmse_nolight"] ** 2
