@@ -87,10 +87,10 @@ PN_HD float restir_shadowed_target(const Tracer& tracer, const SceneView& scene,
   return t.p_hat;
 }
 
-// Pairwise MIS (Bitterli 2022, ch. 9; the defensive form with confidence
-// weights of Wyman et al. 2023): q's own reservoir is the canonical technique c,
-// and each of the k = n - 1 neighbours is weighed against c alone, as a pair
-// that holds 1/k of the total weight:
+// Pairwise MIS (Bitterli's dissertation, 2022, ch. 9), here with the
+// reservoirs' confidences M in each pair's balance heuristic: q's own reservoir
+// is the canonical technique c, and each of the k = n - 1 neighbours is weighed
+// against c alone, as a pair that holds 1/k of the total weight:
 //   m_i(y) = (1/k) M_i p_i(y) / (M_i p_i(y) + (M_c/k) p_c(y)),
 //   m_c(y) = (1/k) sum_i (M_c/k) p_c(y) / (M_i p_i(y) + (M_c/k) p_c(y)),
 // p_j the shadowed target at pixel j. The weights sum to 1 wherever p_c(y) > 0
