@@ -198,6 +198,9 @@ TEST(CameraPath, BadInputIsOneLineNamingTheEntry) {
   EXPECT_EQ(error("[1, 2"), "p.json: invalid JSON");
   // The denoise toggle (key N) as a scripted action: a boolean.
   EXPECT_EQ(error("[{\"frame\": 1, \"denoise\": true}]"), "no error");
+  // restir's panel boxes: booleans.
+  EXPECT_EQ(error("[{\"frame\": 1, \"restir_pairwise\": true}]"), "no error");
+  EXPECT_NE(error("[{\"frame\": 1, \"restir_pairwise\": 1}]").find("p.json: [0].restir_pairwise"), std::string::npos);
   EXPECT_NE(error("[{\"frame\": 1, \"denoise\": 2}]").find("p.json: [0].denoise"), std::string::npos);
 }
 

@@ -115,6 +115,7 @@ const std::map<std::string, Check>& checks() {
       {"fly", boolean()},             {"fly_speed", number_in(0, 1e9, true)},
       {"strategy", strategy()},       {"mis", mis()},
       {"light_selection", light_selection()}, {"restir_temporal", boolean()},
+      {"restir_pairwise", boolean()},
       {"spp_per_frame", integer_in(1, 4096)},
       {"max_depth", integer_in(0, 1000)},
       {"exposure", number_in(-64, 64)}, {"scale", number_in(0.05, 4)},

@@ -70,6 +70,7 @@ struct ImageSettings {
   Mis mis = Mis::Power;
   LightSelection selection = LightSelection::Power;
   bool restir_temporal = false;  // restir: temporal reuse between frames (history kept until the image restarts)
+  bool restir_pairwise = false;  // restir (unbiased): pairwise MIS in the reuse
   int max_depth = 0;
   int width = 0, height = 0;
   bool split = false;  // the divider is not here: it only chooses which image each column shows
@@ -79,7 +80,7 @@ struct ImageSettings {
 
   bool operator==(const ImageSettings& o) const {
     return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && selection == o.selection &&
-           restir_temporal == o.restir_temporal && max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
+           restir_temporal == o.restir_temporal && restir_pairwise == o.restir_pairwise && max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
            right == o.right && equal_time == o.equal_time && scene_overrides == o.scene_overrides;
   }
 };
@@ -195,6 +196,7 @@ class Viewer {
   Mis mis_ = Mis::Power;
   LightSelection selection_ = LightSelection::Power;
   bool restir_temporal_ = false;
+  bool restir_pairwise_ = false;
   int max_depth_ = 8;
   int spp_per_frame_ = 1;
   float exposure_ = 0.f;
@@ -253,6 +255,7 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   mis_ = scene_->render.mis;
   selection_ = scene_->render.light_selection;
   restir_temporal_ = scene_->render.restir.temporal != 0;
+  restir_pairwise_ = scene_->render.restir.pairwise != 0;
   max_depth_ = scene_->render.max_depth;
   spp_per_frame_ = opt_.spp_per_frame;
   exposure_ = opt_.exposure;
@@ -391,6 +394,7 @@ ImageSettings Viewer::wanted() const {
   s.mis = mis_;
   s.selection = selection_;
   s.restir_temporal = selection_ == LightSelection::Restir && restir_temporal_;
+  s.restir_pairwise = selection_ == LightSelection::Restir && restir_pairwise_ && scene_->render.restir.unbiased;
   s.max_depth = max_depth_;
   int fw = 0, fh = 0;
   glfwGetFramebufferSize(window_, &fw, &fh);
@@ -448,6 +452,7 @@ void Viewer::restart(const ImageSettings& s) {
   base.integrator.mis = s.mis;
   base.integrator.light_selection = s.selection;
   base.integrator.restir.temporal = s.restir_temporal ? 1u : 0u;
+  base.integrator.restir.pairwise = s.restir_pairwise ? 1u : 0u;
   try {
     display_->resize(s.width, s.height);
   } catch (const std::exception& e) {  // registering the new size's pixel buffer with CUDA failed
@@ -602,6 +607,8 @@ void Viewer::save_camera_file(const std::string& path) {
   overrides.push_back("render.mis=\"" + std::string(mis_name(mis_)) + "\"");
   overrides.push_back("render.light_selection=\"" + std::string(light_selection_name(selection_)) + "\"");
   overrides.push_back(std::string("render.restir.temporal=") + (restir_temporal_ ? "true" : "false"));
+  if (scene_->render.restir.unbiased)  // pairwise MIS is for the unbiased combination only
+    overrides.push_back(std::string("render.restir.pairwise=") + (restir_pairwise_ ? "true" : "false"));
   overrides.push_back("render.max_depth=" + std::to_string(max_depth_));
   std::string source;
   nlohmann::json doc = load_scene_json(opt_.scene, overrides, &source);
@@ -744,8 +751,10 @@ void Viewer::draw_panel() {
   enum_combo("light selection", &selection_, kNumLightSelections, light_selection_name);
   if (selection_ == LightSelection::Restir) {
     ImGui::Checkbox("temporal reuse", &restir_temporal_);
+    if (scene_->render.restir.unbiased) ImGui::Checkbox("pairwise MIS", &restir_pairwise_);
     RestirSettings r = scene_->render.restir;
     r.temporal = restir_temporal_ ? 1u : 0u;
+    r.pairwise = r.unbiased && restir_pairwise_ ? 1u : 0u;
     ImGui::TextDisabled("%s", light_selection_label(selection_, r).c_str());
   }
   ImGui::TextDisabled("%zu lights", scene_->lights.size());
@@ -891,6 +900,7 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "mis") mis_ = parse_mis(v.get<std::string>(), a.where);
   else if (k == "light_selection") selection_ = parse_light_selection(v.get<std::string>(), a.where);
   else if (k == "restir_temporal") restir_temporal_ = v.get<bool>();
+  else if (k == "restir_pairwise") restir_pairwise_ = v.get<bool>();
   else if (k == "spp_per_frame") spp_per_frame_ = v.get<int>();
   else if (k == "max_depth") max_depth_ = v.get<int>();
   else if (k == "exposure") exposure_ = v.get<float>();
