@@ -264,8 +264,6 @@ class CpuBackend final : public Backend {
     const uint64_t total = uint64_t(W) * H * count;
     std::atomic<uint64_t> done{0};
     Tracer tracer{this};
-    double* sum = film.sum();
-    double* sum_sq = film.sum_sq();
     const bool breadth_first = schedule_ == CpuSchedule::BreadthFirst;
     for_each_tile(W, H, 1, progress, [&](uint32_t, int x0, int y0, int x1, int y1) {
       const int tw = x1 - x0, th = y1 - y0;
@@ -292,15 +290,7 @@ class CpuBackend final : public Backend {
         }
       }
       for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x) {
-          const PixelSum& ps = sums[size_t(y - y0) * tw + (x - x0)];
-          const size_t o = (size_t(y) * W + x) * 3;
-          for (int c = 0; c < 3; ++c) {
-            sum[o + c] += ps.sum[c];
-            sum_sq[o + c] += ps.sum_sq[c];
-          }
-          if (ps.nonfinite > 0) note_nonfinite(x, y, W, ps.nonfinite);
-        }
+        for (int x = x0; x < x1; ++x) add_to_film(film, x, y, W, sums[size_t(y - y0) * tw + (x - x0)]);
       return std::make_pair(done += uint64_t(tw) * th * count, total);
     });
     film.add_samples(count);
@@ -461,15 +451,7 @@ class CpuBackend final : public Backend {
       });
       if (progress) progress(k0 + wave.count, items);
     }
-    double* sum = film.sum();
-    double* sum_sq = film.sum_sq();
-    for (uint32_t p = 0; p < pixels; ++p) {
-      for (int c = 0; c < 3; ++c) {
-        sum[3 * size_t(p) + c] += sums[p].sum[c];
-        sum_sq[3 * size_t(p) + c] += sums[p].sum_sq[c];
-      }
-      if (sums[p].nonfinite > 0) note_nonfinite(int(p % uint32_t(W)), int(p / uint32_t(W)), W, sums[p].nonfinite);
-    }
+    for (uint32_t p = 0; p < pixels; ++p) add_to_film(film, int(p % uint32_t(W)), int(p / uint32_t(W)), W, sums[p]);
     film.add_samples(count);
   }
 
@@ -529,6 +511,16 @@ class CpuBackend final : public Backend {
     note_nonfinite_pixel(stats_, x, y, W);
   }
 
+  // Pixel (x, y)'s sums into the film's, its non-finite samples noted.
+  void add_to_film(Film& film, int x, int y, int W, const PixelSum& ps) {
+    const size_t o = (size_t(y) * W + x) * 3;
+    for (int c = 0; c < 3; ++c) {
+      film.sum()[o + c] += ps.sum[c];
+      film.sum_sq()[o + c] += ps.sum_sq[c];
+    }
+    if (ps.nonfinite > 0) note_nonfinite(x, y, W, ps.nonfinite);
+  }
+
   // restir with spatial or temporal reuse (core/restir.h): per camera sample,
   // the primary pass over every pixel, temporal reuse with the previous
   // sample's final reservoirs (its history; none for the call's first), the
@@ -549,8 +541,6 @@ class CpuBackend final : public Backend {
     const uint64_t total = uint64_t(pixels) * count;
     std::atomic<uint64_t> done{0};
     Tracer tracer{this};
-    double* sum = film.sum();
-    double* sum_sq = film.sum_sq();
     for_each_tile(W, H, count * phases_per_sample, progress, [&](uint32_t phase, int x0, int y0, int x1, int y1) {
       const uint32_t sample = first_sample + phase / phases_per_sample, step = phase % phases_per_sample;
       if (step == 0) {  // primary: the paths, their first vertex's reservoir into reservoirs[0]
@@ -595,14 +585,9 @@ class CpuBackend final : public Backend {
           const size_t p = size_t(y) * W + x;
           const Vec3 L = gbuffer[p].L + restir_shade(tracer, view_, s, gbuffer[p], final_reservoirs[p]);
           if (temporal) history_pixels[p] = gbuffer[p], history[p] = final_reservoirs[p];
-          if (!is_finite(L)) {
-            note_nonfinite(x, y, W, 1);
-            continue;
-          }
-          for (int c = 0; c < 3; ++c) {
-            sum[3 * p + c] += L[c];
-            sum_sq[3 * p + c] += double(L[c]) * L[c];
-          }
+          PixelSum ps;  // this sample's
+          ps.add(L);
+          add_to_film(film, x, y, W, ps);
         }
       return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0), total);
     });
