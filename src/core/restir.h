@@ -105,12 +105,7 @@ PN_HD Reservoir restir_combine_pairwise(const Tracer& tracer, const SceneView& s
   Reservoir r;
   for (uint32_t i = 0; i < n; ++i) r.M += in[i]->M;
   const Reservoir& c = *in[0];
-  if (n == 1) {
-    if (c.W > 0.f && r.update(c.s, c.p_hat * c.W, rng.uniform())) r.p_hat = c.p_hat;
-    if (r.w_sum > 0.f) r.W = r.w_sum / r.p_hat;
-    return r;
-  }
-  const float k = float(n - 1);
+  const float k = float(pn_max(n, 2u) - 1);  // no neighbour (n = 1): the loops do not run, and m_c = 1
   const float mc = c.M / k;  // the canonical's confidence in each pair
   if (c.W > 0.f) {  // q's own sample: its weight against every neighbour
     float m_c = 0.f;
@@ -119,7 +114,7 @@ PN_HD Reservoir restir_combine_pairwise(const Tracer& tracer, const SceneView& s
       const float den = in[i]->M * p_i + mc * c.p_hat;
       m_c += den > 0.f ? mc * c.p_hat / den : 0.f;
     }
-    m_c /= k;
+    m_c = n == 1 ? 1.f : m_c / k;
     if (r.update(c.s, m_c * c.p_hat * c.W, rng.uniform())) r.p_hat = c.p_hat;
   }
   for (uint32_t i = 1; i < n; ++i) {  // each neighbour's sample, against q's alone
@@ -236,7 +231,7 @@ PN_HD Reservoir restir_temporal_reuse(const Tracer& tracer, const SceneView& sce
   return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, 2, rng, rs.pairwise != 0);
 }
 
-// Pass 3: the direct light of q's first vertex from its reservoir, weighted by
+// Pass 4: the direct light of q's first vertex from its reservoir, weighted by
 // MIS against the BSDF sample of q's path (core/integrator.h,
 // bsdf_emission_weight), unshadowed where the reservoir's target already holds
 // visibility (unbiased), else after a shadow ray.

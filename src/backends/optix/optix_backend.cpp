@@ -138,9 +138,9 @@ class OptixBackendImpl final : public OptixBackend {
       acc_bad_.alloc(pixels * sizeof(unsigned), "the accumulation buffers", size_);
     }
     PN_CUDA(cudaMemsetAsync(acc_sum_.as<void>(), 0, acc_sum_.size(), stream_));
-    clear_restir_history();  // temporal reuse starts over with the image
     PN_CUDA(cudaMemsetAsync(acc_sum_sq_.as<void>(), 0, acc_sum_sq_.size(), stream_));
     PN_CUDA(cudaMemsetAsync(acc_bad_.as<void>(), 0, acc_bad_.size(), stream_));
+    clear_restir_history();  // temporal reuse starts over with the image
     accumulated_ = 0;
   }
 
