@@ -128,6 +128,21 @@ TEST(ImageLoad, BrokenJpegsAreRefusedInOneLine) {
     EXPECT_EQ(error.find('\n'), std::string::npos) << error;
     EXPECT_TRUE(img.texels.empty());
   }
+  // A header that claims 60000 x 60000 pixels: refused before anything is allocated.
+  std::vector<uint8_t> huge = jpeg;
+  bool patched = false;
+  for (size_t i = 0; i + 8 < huge.size() && !patched; ++i)
+    if (huge[i] == 0xFF && huge[i + 1] == 0xC0) {  // SOF0: length (2), precision (1), height (2), width (2)
+      huge[i + 5] = huge[i + 7] = 0xEA;
+      huge[i + 6] = huge[i + 8] = 0x60;
+      patched = true;
+    }
+  ASSERT_TRUE(patched);
+  DecodedImage none;
+  std::string why;
+  EXPECT_FALSE(decode_image_memory(huge.data(), huge.size(), true, &none, &why));
+  EXPECT_EQ(why, "image too large (60000x60000)");
+  EXPECT_TRUE(none.texels.empty());
   // fuzz_image's input on which Debian's stb_image read out of bounds (ASan).
   const std::string path =
       std::string(PENUMBRA_TEST_DATA) + "/../fuzz/regressions/image/jpeg-stb-reads-out-of-bounds.jpg";
