@@ -151,9 +151,16 @@ const Case kWavefrontCases[] = {
     {"polygon-near", {"render.strategy=solid-angle", "render.mis=power", "render.light_selection=bvh"}},
     {"glossy", {"render.strategy=solid-angle", "render.mis=power", "render.max_depth=3", "render.rr_depth=1"}},
     {"glossy", {"render.strategy=area", "render.mis=none"}},
-    // restir without spatial reuse: resampling at the first vertex inside on_hit. (With spatial reuse the
-    // backend runs restir's frame-level passes, as every schedule does.)
+    // restir without spatial reuse: resampling at the first vertex inside on_hit.
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.spatial_passes=0"}},
+    // restir's frame-level passes: the primary pass as waves (RestirFrame: reservoir queries in the shadow
+    // queue, records and reservoirs written by the first vertices), then the reuse passes; every combination.
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir"}},
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.pairwise=true"}},
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.unbiased=false",
+                      "render.strategy=area"}},
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.temporal=true",
+                      "render.restir.spatial_passes=1", "render.restir.source=bvh"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=power", "render.max_depth=1"}},
 };
 

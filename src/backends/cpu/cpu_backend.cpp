@@ -385,6 +385,27 @@ class CpuBackend final : public Backend {
                         const ProgressFn& progress) {
     const int W = frame.camera.width, H = frame.camera.height;
     const uint32_t pixels = uint32_t(W) * uint32_t(H);
+    // The accumulation's sink: the render call's PixelSums (a pixel's samples in order).
+    std::vector<PixelSum> sums(pixels);
+    struct Sink {
+      PixelSum* sums;
+      PixelSum* ps = nullptr;
+      void begin(uint32_t pixel, bool) { ps = &sums[pixel]; }
+      void add(const Vec3& radiance, uint32_t) { ps->add(radiance); }
+      void end(uint32_t) {}
+    };
+    run_waves(frame, first_sample, count, RestirFrame(), [&] { return Sink{sums.data()}; }, progress);
+    for (uint32_t p = 0; p < pixels; ++p) add_to_film(film, int(p % uint32_t(W)), int(p / uint32_t(W)), W, sums[p]);
+    film.add_samples(count);
+  }
+
+  // The waves of the Wavefront schedule: samples [first_sample, first_sample + count) of every pixel, each
+  // pixel's radiance handed to a sink from make_sink() (wavefront.h's accumulate). With `restir` (one sample:
+  // restir's primary pass) the first vertices write their pixels' records and reservoirs there.
+  template <class MakeSink>
+  void run_waves(const FrameSpec& frame, uint32_t first_sample, uint32_t count, RestirFrame restir,
+                 MakeSink&& make_sink, const ProgressFn& progress) {
+    const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
     const uint64_t items = uint64_t(pixels) * count;
     const uint32_t capacity = uint32_t(std::min<uint64_t>(wavefront_paths_, std::max<uint64_t>(items, 1)));
     const IntegratorSettings& s = frame.integrator;
@@ -410,16 +431,8 @@ class CpuBackend final : public Backend {
     w.hits = hits.data();
     w.blocked_bits = bits.data();
     w.capacity = capacity;
+    w.restir = restir;
 
-    // The accumulation's sink: the render call's PixelSums (a pixel's samples in order).
-    std::vector<PixelSum> sums(pixels);
-    struct Sink {
-      PixelSum* sums;
-      PixelSum* ps = nullptr;
-      void begin(uint32_t pixel, bool) { ps = &sums[pixel]; }
-      void add(const Vec3& radiance, uint32_t) { ps->add(radiance); }
-      void end(uint32_t) {}
-    };
     Tracer tracer{this};
     for (uint64_t k0 = 0; k0 < items; k0 += capacity) {
       wave = WaveSpec{k0, uint32_t(std::min<uint64_t>(capacity, items - k0)), first_sample, pixels, frame.seed};
@@ -446,13 +459,11 @@ class CpuBackend final : public Backend {
         parallel_for(n_rays, [&](uint32_t j) { shade<kAllFeatures>(j, w, cur, view_, s); });
       }
       parallel_for(std::min(wave.count, pixels), [&](uint32_t i) {
-        Sink sink{sums.data()};
+        auto sink = make_sink();
         accumulate(i, w, sink);
       });
       if (progress) progress(k0 + wave.count, items);
     }
-    for (uint32_t p = 0; p < pixels; ++p) add_to_film(film, int(p % uint32_t(W)), int(p / uint32_t(W)), W, sums[p]);
-    film.add_samples(count);
   }
 
   // Runs fn(phase, x0, y0, x1, y1) over the W x H frame's 16x16 tiles for
@@ -541,8 +552,8 @@ class CpuBackend final : public Backend {
     const uint64_t total = uint64_t(pixels) * count;
     std::atomic<uint64_t> done{0};
     Tracer tracer{this};
-    for_each_tile(W, H, count * phases_per_sample, progress, [&](uint32_t phase, int x0, int y0, int x1, int y1) {
-      const uint32_t sample = first_sample + phase / phases_per_sample, step = phase % phases_per_sample;
+    // Step `step` of sample `sample` over the tile [x0, x1) x [y0, y1); returns (samples done, samples total).
+    auto run_step = [&](uint32_t sample, uint32_t step, int x0, int y0, int x1, int y1) {
       if (step == 0) {  // primary: the paths, their first vertex's reservoir into reservoirs[0]
         if (schedule_ == CpuSchedule::BreadthFirst) {
           std::vector<PathState> pool;
@@ -590,7 +601,28 @@ class CpuBackend final : public Backend {
           add_to_film(film, x, y, W, ps);
         }
       return std::make_pair(done += uint64_t(x1 - x0) * (y1 - y0), total);
-    });
+    };
+    if (schedule_ != CpuSchedule::Wavefront) {
+      for_each_tile(W, H, count * phases_per_sample, progress, [&](uint32_t phase, int x0, int y0, int x1, int y1) {
+        return run_step(first_sample + phase / phases_per_sample, phase % phases_per_sample, x0, y0, x1, y1);
+      });
+    } else {  // the primary pass as waves over the whole frame (wavefront.h's RestirFrame), then the other steps
+      struct RadianceSink {  // the path's radiance, its first vertex's direct light left out, to the pixel's record
+        RestirPixel* pixels;
+        Vec3 L;
+        void begin(uint32_t, bool) {}
+        void add(const Vec3& radiance, uint32_t) { L = radiance; }
+        void end(uint32_t pixel) { pixels[pixel].L = L; }
+      };
+      for (uint32_t i = 0; i < count; ++i) {
+        const uint32_t sample = first_sample + i;
+        run_waves(frame, sample, 1, RestirFrame{gbuffer.data(), reservoirs[0].data()},
+                  [&] { return RadianceSink{gbuffer.data(), Vec3(0.f)}; }, nullptr);
+        for_each_tile(W, H, phases_per_sample - 1, progress, [&](uint32_t phase, int x0, int y0, int x1, int y1) {
+          return run_step(sample, phase + 1, x0, y0, x1, y1);
+        });
+      }
+    }
     film.add_samples(count);
   }
 

@@ -214,7 +214,18 @@ class OptixBackendImpl final : public OptixBackend {
       // Ordered after the previous launch on the stream; the host copy is staged
       // before cudaMemcpyAsync returns, so `p` may change right after.
       PN_CUDA(cudaEventRecord(s.start, stream_));
-      if (restir) {
+      if (restir && wavefront_ && wavefront_->restir_inline()) {
+        RestirFrameBuffers b;
+        b.pixels = restir_pixels_.as<RestirPixel>();
+        b.reservoirs[0] = restir_a_.as<Reservoir>();
+        b.reservoirs[1] = restir_b_.as<Reservoir>();
+        if (frame.integrator.restir.temporal) {
+          b.history_pixels = restir_history_pixels_.as<RestirPixel>();
+          b.history = restir_history_.as<Reservoir>();
+        }
+        wavefront_->render_restir(frame, base_params_.scene, pipeline_.feature_level(), p.first_sample, b, p.sum,
+                                  p.sum_sq, stream_);
+      } else if (restir) {
         launch_restir(p, sbt, unsigned(W), unsigned(H));
       } else if (wavefront_) {
         wavefront_->render(frame, base_params_.scene, pipeline_.feature_level(), p.first_sample, spp, p.sum, p.sum_sq, stream_);
@@ -540,7 +551,7 @@ class OptixBackendImpl final : public OptixBackend {
   DeviceBuffer params_, counters_;
   DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, acc_bad_;
   LaunchParams base_params_;
-  std::unique_ptr<WavefrontGpu> wavefront_;  // --wavefront: renders in place of the megakernel (not restir's passes)
+  std::unique_ptr<WavefrontGpu> wavefront_;  // --wavefront: renders in place of the megakernel (restir's passes too with the cuda traversal)
 
   int width_ = 0, height_ = 0;
   uint64_t accumulated_ = 0;

@@ -22,8 +22,12 @@
 // Every camera sample has its own RNG stream (start_path), so waves may cut the items anywhere: pools smaller
 // than the frame (several waves a render call) and pools holding several samples of a pixel give the same image.
 //
-// restir with spatial reuse (frame-level passes, core/restir.h) is not a wavefront: its backends keep their
-// passes. restir without spatial reuse resamples inside on_hit and is covered here.
+// restir without spatial reuse resamples inside on_hit and is covered as it is. restir's frame-level passes
+// (core/restir.h) run their primary pass as a wavefront (RestirFrame below): one sample of every pixel, each
+// path's first vertex writing its pixel's record and reservoir (on_hit's RestirPrimaryOut), the reservoir's
+// visibility query (ShadowKind::Reservoir) in the shadow queue beside the others, and the accumulation writing
+// each path's radiance to its pixel's record instead of a sink. The reuse and shading passes follow as the
+// backend's own (they need the whole frame's reservoirs).
 //
 // Plain pointers and PN_HD code: the CPU backend runs these in loops (CpuSchedule::Wavefront), the GPU in kernels
 // (wavefront_gpu.cu).
@@ -82,6 +86,17 @@ struct ShadowQueue {
   uint32_t* count = nullptr;
 };
 
+// restir's primary pass (null pointers: an ordinary render): pixel p's record and reservoir, written by the
+// first vertex of its path; a wave then holds one sample of each pixel (first_sample: the frame's).
+struct RestirFrame {
+  RestirPixel* pixels = nullptr;
+  Reservoir* reservoirs = nullptr;
+};
+
+// A shadow queue entry whose slot has this bit is a reservoir's visibility query (ShadowKind::Reservoir): its
+// contribution's x holds the W it sets. Slots are below the pool's capacity, at most 2^26.
+constexpr uint32_t kReservoirQuery = 1u << 31;
+
 // Every array of a wavefront, sized for `capacity` paths.
 struct WavefrontView {
   const WaveSpec* wave = nullptr;
@@ -91,6 +106,7 @@ struct WavefrontView {
   HitRecord* hits = nullptr;        // hits[j]: ray[cur].rays[j]'s closest hit, instance kTraceMiss for a miss
   uint32_t* blocked_bits = nullptr;  // bit j: shadow.rays[j] is blocked (trace_bit_words(capacity) words)
   uint32_t capacity = 0;
+  RestirFrame restir;
 };
 
 // Bytes of one path's state and queue entries: what the pool costs per slot.
@@ -139,6 +155,11 @@ PN_FN TraceRay trace_ray(const Ray& r, float tmax) {
   return t;
 }
 
+// Where pixel p's primary pass writes (restir's frame).
+PN_FN RestirPrimaryOut restir_primary_out(const WavefrontView& w, uint32_t pixel) {
+  return RestirPrimaryOut{&w.restir.pixels[pixel], &w.restir.reservoirs[pixel]};
+}
+
 // --- The stages ------------------------------------------------------------------------------------------------
 
 // Slot i (< capacity) takes item wave.first_item + i: its camera ray into ray queue 0 at position i. Thread 0
@@ -154,8 +175,11 @@ PN_FN void generate_camera_ray(uint32_t i, const WavefrontView& w, const Camera&
   const uint64_t k = wave.first_item + i;
   const uint32_t pixel = uint32_t(k % wave.pixels);
   const uint32_t width = uint32_t(camera.width);
+  RestirPrimaryOut out;  // restir's primary pass: the pixel's record and reservoir start empty
+  if (w.restir.pixels) out = restir_primary_out(w, pixel);
   PathState st = start_path(camera, int(pixel % width), int(pixel / width),
-                            wave.first_sample + uint32_t(k / wave.pixels), wave.seed);
+                            wave.first_sample + uint32_t(k / wave.pixels), wave.seed,
+                            w.restir.pixels ? &out : nullptr);
   store_path(w, i, st);
   w.pool.rays[i] = 1;
   w.ray[0].rays[i] = trace_ray(st.ray, kInf);
@@ -163,16 +187,25 @@ PN_FN void generate_camera_ray(uint32_t i, const WavefrontView& w, const Camera&
 }
 
 // Shadow query j's answer: on_shadow_result adds its contribution to its path's radiance if the ray was clear.
+// A reservoir's query (restir's frame): its W set if the ray was clear.
 PN_FN void apply_shadow_result(uint32_t j, const WavefrontView& w) {
-  const uint32_t slot = w.shadow.slot[j];
+  const uint32_t entry = w.shadow.slot[j];
   const bool blocked = ((w.blocked_bits[j / 32u] >> (j % 32u)) & 1u) != 0u;
   PathState st;
-  st.L = w.pool.L[slot];
   ShadowQuery q;
+  if (entry & kReservoirQuery) {
+    const uint32_t slot = entry & ~kReservoirQuery;
+    q.kind = ShadowKind::Reservoir;
+    q.reservoir_W = w.shadow.contribution[j].x;
+    RestirPrimaryOut out = restir_primary_out(w, uint32_t((w.wave->first_item + slot) % w.wave->pixels));
+    on_shadow_result(st, q, blocked, &out);
+    return;
+  }
+  st.L = w.pool.L[entry];
   q.kind = ShadowKind::Radiance;
   q.contribution = w.shadow.contribution[j];
   on_shadow_result(st, q, blocked);
-  w.pool.L[slot] = st.L;
+  w.pool.L[entry] = st.L;
 }
 
 // Between apply and shade: the queues shade pushes to start empty (one thread).
@@ -190,14 +223,21 @@ PN_HD void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
   PathState st = load_path(w, slot, in.rays[j]);
   const HitRecord rec = w.hits[j];
   ShadowQuery q;
-  if (rec.instance == kTraceMiss) on_miss<kFeatures>(st, scene, s);
-  else q = on_hit<kFeatures>(st, scene, s, rec);
+  if (rec.instance == kTraceMiss) {
+    on_miss<kFeatures>(st, scene, s);
+  } else if (w.restir.pixels && st.depth == 0) {  // restir's frame: the first vertex writes its pixel's
+    RestirPrimaryOut out = restir_primary_out(w, st.pixel);
+    q = on_hit<kFeatures>(st, scene, s, rec, &out);
+  } else {
+    q = on_hit<kFeatures>(st, scene, s, rec);
+  }
   uint32_t rays = 0;
-  if (q.kind == ShadowKind::Radiance) {
+  if (q.kind != ShadowKind::None) {
     const uint32_t k = queue_push(w.shadow.count);
     w.shadow.rays[k] = trace_ray(q.ray, q.tmax);
-    w.shadow.slot[k] = slot;
-    w.shadow.contribution[k] = q.contribution;
+    const bool reservoir = q.kind == ShadowKind::Reservoir;
+    w.shadow.slot[k] = reservoir ? slot | kReservoirQuery : slot;
+    w.shadow.contribution[k] = reservoir ? Vec3(q.reservoir_W, 0.f, 0.f) : q.contribution;
     ++rays;
   }
   if (st.active) {

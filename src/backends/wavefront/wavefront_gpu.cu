@@ -88,12 +88,33 @@ struct LaunchSink {
   __device__ void end(uint32_t pixel) { store_launch_sums(WP().sum, WP().sum_sq, pixel, sums, rays); }
 };
 
+// restir's primary pass: the path's radiance (its first vertex's direct light left out) to the pixel's record,
+// its rays to the launch sums' w, where the reuse and shading passes add theirs.
+struct RestirRadianceSink {
+  Vec3 L;
+  float rays = 0.f;
+  __device__ void begin(uint32_t, bool) {}
+  __device__ void add(const Vec3& radiance, uint32_t path_rays) {
+    L = radiance;
+    rays = float(path_rays);
+  }
+  __device__ void end(uint32_t pixel) {
+    WP().view.restir.pixels[pixel].L = L;
+    WP().sum[pixel] = make_float4(0.f, 0.f, 0.f, rays);
+  }
+};
+
 __global__ void __launch_bounds__(kBlock) accumulate_kernel() {
   const WavefrontView& w = WP().view;
   const uint32_t n = min(w.wave->count, w.wave->pixels);
   for (uint32_t i = first_index(); i < n; i += stride()) {
-    LaunchSink sink;
-    accumulate(i, w, sink);
+    if (w.restir.pixels) {
+      RestirRadianceSink sink;
+      accumulate(i, w, sink);
+    } else {
+      LaunchSink sink;
+      accumulate(i, w, sink);
+    }
   }
 }
 
@@ -110,6 +131,7 @@ class CudaTraceStage final : public WavefrontTraceStage {
     traversal_.trace_shadow(q_.shadow_rays, q_.shadow_count, q_.capacity, q_.blocked_bits, scene_, stream);
   }
   std::string name() const override { return "cuda"; }
+  const CudaTraversal* cuda() const override { return &traversal_; }
 
  private:
   CudaTraversal traversal_;
@@ -270,7 +292,22 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_p
 }
 
 void WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
-                          uint32_t first_sample, uint32_t spp, void* sum, void* sum_sq, void* stream_ptr) {
+                          uint32_t first_sample, uint32_t spp, void* sum, void* sum_sq, void* stream) {
+  run(frame, device_scene, feature_level, first_sample, spp, RestirFrame(), sum, sum_sq, stream);
+}
+
+void WavefrontGpu::render_restir(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
+                                 uint32_t sample, const RestirFrameBuffers& b, void* sum, void* sum_sq,
+                                 void* stream) {
+  if (!restir_inline()) throw std::logic_error("wavefront: restir's passes need the cuda traversal");
+  run(frame, device_scene, feature_level, sample, 1, RestirFrame{b.pixels, b.reservoirs[0]}, sum, sum_sq, stream);
+  cuda_restir_passes(*trace_->cuda(), device_scene, frame.integrator, frame.camera.width, frame.camera.height,
+                     sample, frame.seed, b, sum, sum_sq, stream);
+}
+
+void WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
+                       uint32_t first_sample, uint32_t spp, const RestirFrame& restir, void* sum, void* sum_sq,
+                       void* stream_ptr) {
   cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
   const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
   const uint64_t items = uint64_t(pixels) * spp;
@@ -285,6 +322,7 @@ void WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene,
     record(feature_level, frame.integrator.max_depth, stream);
   WaveParams p;
   p.view = view_;
+  p.view.restir = restir;
   p.scene = device_scene;
   p.camera = frame.camera;
   p.integrator = frame.integrator;
