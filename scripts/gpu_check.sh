@@ -23,10 +23,9 @@
 #      (uniform, bvh, restir unbiased with spatial reuse, restir without reuse,
 #      restir with BVH candidates, restir with pairwise MIS, the BIASED restir:
 #      CPU and GPU must agree on
-#      its expectation too; restir with temporal reuse; restir with the optix
-#      traversal, whose frame passes are the megakernel's OptiX launches, where
-#      the default (wavefront, cuda traversal on a GPU without RT cores) runs
-#      the primary pass as waves and the reuse passes as kernels tracing inline) on GPU_CHECK_SELECTION_SCENES (default many-spheres
+#      its expectation too; restir with temporal reuse; restir's frame passes
+#      with the wavefront's optix trace stage beside the default (cuda traversal
+#      on a GPU without RT cores), and as the megakernel's OptiX programs) on GPU_CHECK_SELECTION_SCENES (default many-spheres
 #      at 2000 lights, sponza-lanterns, glossy: the environment beside the
 #      light BVH), CPU against GPU with independent seeds, and bvh and restir
 #      with the same seed; restir's frame passes on the GPU (spatial reuse and
@@ -140,7 +139,7 @@ done
 # 3. Light selection: every method, CPU against GPU (solid-angle, MIS power).
 echo "== light selection: CPU vs GPU"
 # method[:extra args, comma-separated]: the name is the spec with ':' and ',' and '=' made '_'.
-selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-biased restir:--restir-temporal restir:--traversal=optix"}
+selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-biased restir:--restir-temporal restir:--traversal=optix restir:--megakernel"}
 selection_scenes=${GPU_CHECK_SELECTION_SCENES:-"many-spheres sponza-lanterns glossy"}
 for scene in $selection_scenes; do
   if ! listed "$scene"; then echo "skip: $scene is not a built-in scene of this build"; continue; fi

@@ -231,6 +231,41 @@ PN_HD Reservoir restir_temporal_reuse(const Tracer& tracer, const SceneView& sce
   return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, 2, rng, rs.pairwise != 0);
 }
 
+// One reuse pass of a frame at one pixel: `pass` is kRestirTemporalPass (temporal reuse, with the history) or a
+// spatial pass's number. Every backend's reuse runs this.
+struct RestirReuse {
+  const RestirPixel* pixels = nullptr;  // the frame's records
+  const Reservoir* in = nullptr;        // every pixel's reservoir before the pass
+  const RestirPixel* history_pixels = nullptr;  // temporal reuse: the previous sample's
+  const Reservoir* history = nullptr;
+  int width = 0, height = 0;
+  uint32_t sample = 0, seed = 0, pass = 0;
+};
+
+template <uint32_t kFeatures = kAllFeatures, class Tracer>
+PN_HD Reservoir restir_reuse(const Tracer& tracer, const SceneView& scene, const RestirSettings& rs,
+                             const RestirReuse& r, uint32_t pixel) {
+  if (r.pass == kRestirTemporalPass)
+    return restir_temporal_reuse<kFeatures>(tracer, scene, rs, r.pixels[pixel], r.in[pixel], r.history_pixels[pixel],
+                                            r.history[pixel], pixel, r.sample, r.seed);
+  return restir_spatial_reuse<kFeatures>(tracer, scene, rs, r.pixels, r.in, r.width, r.height,
+                                         int(pixel % uint32_t(r.width)), int(pixel / uint32_t(r.width)), r.sample,
+                                         r.seed, r.pass);
+}
+
+// The most shadow rays restir_reuse can trace at one pixel (the combination traces only where a target is
+// positive; these are the loops' lengths): none for the biased combination (unshadowed targets), 2 (n - 1) with
+// pairwise MIS and n (n - 1) with the generalized balance heuristic, n the reservoirs combined (q's and the
+// neighbours', or q's and its history).
+PN_FN uint32_t restir_reuse_max_rays(const RestirSettings& rs, uint32_t pass) {
+  if (!rs.unbiased) return 0;
+  const uint32_t n = pass == kRestirTemporalPass ? 2u : pn_min(rs.neighbors, kMaxRestirNeighbors) + 1u;
+  return rs.pairwise ? 2u * (n - 1u) : n * (n - 1u);
+}
+
+// The same for restir_shade: a shadow ray only where the reservoirs' targets were unshadowed (biased).
+PN_FN uint32_t restir_shade_max_rays(const RestirSettings& rs) { return rs.unbiased ? 0u : 1u; }
+
 // Pass 4: the direct light of q's first vertex from its reservoir, weighted by
 // MIS against the BSDF sample of q's path (core/integrator.h,
 // bsdf_emission_weight), unshadowed where the reservoir's target already holds

@@ -394,75 +394,111 @@ class CpuBackend final : public Backend {
       void add(const Vec3& radiance, uint32_t) { ps->add(radiance); }
       void end(uint32_t) {}
     };
-    run_waves(frame, first_sample, count, RestirFrame(), [&] { return Sink{sums.data()}; }, progress);
+    HostWavefront hw(uint32_t(std::min<uint64_t>(wavefront_paths_, std::max<uint64_t>(uint64_t(pixels) * count, 1))));
+    run_waves(hw, frame, first_sample, count, RestirFrame(), [&] { return Sink{sums.data()}; }, progress);
     for (uint32_t p = 0; p < pixels; ++p) add_to_film(film, int(p % uint32_t(W)), int(p / uint32_t(W)), W, sums[p]);
     film.add_samples(count);
+  }
+
+  // A wavefront's arrays on the host, with the GPU's layout.
+  struct HostWavefront {
+    std::vector<Vec3> beta, L, contribution;
+    std::vector<Rng> rng;
+    std::vector<PrevVertex> prev;
+    std::vector<int32_t> depth;
+    std::vector<uint32_t> rays, slots[3], bits;
+    std::vector<TraceRay> queue_rays[3];
+    std::vector<HitRecord> hits;
+    uint32_t counts[3] = {0, 0, 0};
+    WaveSpec wave;
+    WavefrontView w;
+
+    explicit HostWavefront(uint32_t capacity)
+        : beta(capacity), L(capacity), contribution(capacity), rng(capacity), prev(capacity), depth(capacity),
+          rays(capacity), bits(trace_bit_words(capacity)), hits(capacity) {
+      for (int q = 0; q < 3; ++q) {
+        slots[q].resize(capacity);
+        queue_rays[q].resize(capacity);
+      }
+      w.wave = &wave;
+      w.pool = PathPool{beta.data(), L.data(), rng.data(), prev.data(), depth.data(), rays.data()};
+      for (int q = 0; q < 2; ++q) w.ray[q] = RayQueue{queue_rays[q].data(), slots[q].data(), &counts[q]};
+      w.shadow = ShadowQueue{queue_rays[2].data(), slots[2].data(), contribution.data(), &counts[2]};
+      w.hits = hits.data();
+      w.blocked_bits = bits.data();
+      w.capacity = capacity;
+    }
+    HostWavefront(const HostWavefront&) = delete;
+    HostWavefront& operator=(const HostWavefront&) = delete;
+  };
+
+  // The trace stage's shadow half: the shadow queue's rays into blocked bits.
+  void trace_shadow_queue(const Tracer& tracer, HostWavefront& hw) {
+    const uint32_t n = hw.counts[2];
+    parallel_for(trace_bit_words(n), [&](uint32_t word) {
+      uint32_t b = 0;
+      for (uint32_t j = 32 * word; j < std::min(n, 32 * word + 32); ++j) {
+        const TraceRay& r = hw.w.shadow.rays[j];
+        if (tracer.occluded(Ray(r.o, r.d), r.tmax)) b |= 1u << (j % 32);
+      }
+      hw.bits[word] = b;
+    });
   }
 
   // The waves of the Wavefront schedule: samples [first_sample, first_sample + count) of every pixel, each
   // pixel's radiance handed to a sink from make_sink() (wavefront.h's accumulate). With `restir` (one sample:
   // restir's primary pass) the first vertices write their pixels' records and reservoirs there.
   template <class MakeSink>
-  void run_waves(const FrameSpec& frame, uint32_t first_sample, uint32_t count, RestirFrame restir,
-                 MakeSink&& make_sink, const ProgressFn& progress) {
+  void run_waves(HostWavefront& hw, const FrameSpec& frame, uint32_t first_sample, uint32_t count,
+                 RestirFrame restir, MakeSink&& make_sink, const ProgressFn& progress) {
     const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
     const uint64_t items = uint64_t(pixels) * count;
-    const uint32_t capacity = uint32_t(std::min<uint64_t>(wavefront_paths_, std::max<uint64_t>(items, 1)));
     const IntegratorSettings& s = frame.integrator;
-    // The pool: host arrays with the GPU's layout.
-    std::vector<Vec3> beta(capacity), L(capacity), contribution(capacity);
-    std::vector<Rng> rng(capacity);
-    std::vector<PrevVertex> prev(capacity);
-    std::vector<int32_t> depth(capacity);
-    std::vector<uint32_t> rays(capacity), slots[3] = {std::vector<uint32_t>(capacity),
-                                                       std::vector<uint32_t>(capacity),
-                                                       std::vector<uint32_t>(capacity)};
-    std::vector<TraceRay> queue_rays[3] = {std::vector<TraceRay>(capacity), std::vector<TraceRay>(capacity),
-                                           std::vector<TraceRay>(capacity)};
-    std::vector<HitRecord> hits(capacity);
-    std::vector<uint32_t> bits(trace_bit_words(capacity));
-    uint32_t counts[3] = {0, 0, 0};
-    WaveSpec wave;
-    WavefrontView w;
-    w.wave = &wave;
-    w.pool = PathPool{beta.data(), L.data(), rng.data(), prev.data(), depth.data(), rays.data()};
-    for (int q = 0; q < 2; ++q) w.ray[q] = RayQueue{queue_rays[q].data(), slots[q].data(), &counts[q]};
-    w.shadow = ShadowQueue{queue_rays[2].data(), slots[2].data(), contribution.data(), &counts[2]};
-    w.hits = hits.data();
-    w.blocked_bits = bits.data();
-    w.capacity = capacity;
+    WavefrontView& w = hw.w;
     w.restir = restir;
-
+    const uint32_t capacity = w.capacity;
     Tracer tracer{this};
     for (uint64_t k0 = 0; k0 < items; k0 += capacity) {
-      wave = WaveSpec{k0, uint32_t(std::min<uint64_t>(capacity, items - k0)), first_sample, pixels, frame.seed};
+      hw.wave = WaveSpec{k0, uint32_t(std::min<uint64_t>(capacity, items - k0)), first_sample, pixels, frame.seed};
       parallel_for(capacity, [&](uint32_t i) { generate_camera_ray(i, w, frame.camera); });
       // max_depth + 1 iterations (wavefront.h); the GPU's graph runs exactly these, so more is an error here.
-      for (int it = 0, cur = 0; counts[cur] > 0 || counts[2] > 0; ++it, cur ^= 1) {
+      for (int it = 0, cur = 0; hw.counts[cur] > 0 || hw.counts[2] > 0; ++it, cur ^= 1) {
         if (it > s.max_depth) throw std::logic_error("wavefront: paths left after max_depth + 1 iterations");
         const RayQueue& in = w.ray[cur];
-        const uint32_t n_rays = counts[cur], n_shadow = counts[2];
+        const uint32_t n_rays = hw.counts[cur], n_shadow = hw.counts[2];
         parallel_for(n_rays, [&](uint32_t j) {
           const TraceRay& r = in.rays[j];
-          if (!tracer.intersect(Ray(r.o, r.d), r.tmax, &hits[j])) hits[j].instance = kTraceMiss;
+          if (!tracer.intersect(Ray(r.o, r.d), r.tmax, &hw.hits[j])) hw.hits[j].instance = kTraceMiss;
         });
-        parallel_for(trace_bit_words(n_shadow), [&](uint32_t word) {
-          uint32_t b = 0;
-          for (uint32_t j = 32 * word; j < std::min(n_shadow, 32 * word + 32); ++j) {
-            const TraceRay& r = w.shadow.rays[j];
-            if (tracer.occluded(Ray(r.o, r.d), r.tmax)) b |= 1u << (j % 32);
-          }
-          bits[word] = b;
-        });
+        trace_shadow_queue(tracer, hw);
         parallel_for(n_shadow, [&](uint32_t j) { apply_shadow_result(j, w); });
         begin_bounce(w, cur ^ 1);
         parallel_for(n_rays, [&](uint32_t j) { shade<kAllFeatures>(j, w, cur, view_, s); });
       }
-      parallel_for(std::min(wave.count, pixels), [&](uint32_t i) {
+      parallel_for(std::min(hw.wave.count, pixels), [&](uint32_t i) {
         auto sink = make_sink();
         accumulate(i, w, sink);
       });
-      if (progress) progress(k0 + wave.count, items);
+      if (progress) progress(k0 + hw.wave.count, items);
+    }
+    w.restir = RestirFrame();
+  }
+
+  // A frame pass of restir through the trace stage (wavefront.h): chunks of the frame's pixels, each recorded
+  // (record(i, chunk)), its shadow queue traced, then replayed (replay(i, chunk)). max_rays 0: no queries, the
+  // replay alone.
+  template <class Record, class Replay>
+  void restir_frame_pass(HostWavefront& hw, uint32_t pixels, uint32_t max_rays, Record&& record, Replay&& replay) {
+    const uint32_t chunk = restir_chunk_pixels(hw.w, max_rays);
+    Tracer tracer{this};
+    for (uint32_t first = 0; first < pixels; first += chunk) {
+      const RestirChunk c{first, std::min(chunk, pixels - first), max_rays};
+      if (max_rays > 0) {
+        begin_shadow_batch(hw.w);
+        parallel_for(c.count, [&](uint32_t i) { record(i, c); });
+        trace_shadow_queue(tracer, hw);
+      }
+      parallel_for(c.count, [&](uint32_t i) { replay(i, c); });
     }
   }
 
@@ -552,6 +588,20 @@ class CpuBackend final : public Backend {
     const uint64_t total = uint64_t(pixels) * count;
     std::atomic<uint64_t> done{0};
     Tracer tracer{this};
+    // Reuse pass `pass` of sample `sample` from reservoirs `in`.
+    auto reuse = [&](uint32_t sample, uint32_t pass, const Reservoir* in) {
+      RestirReuse r;
+      r.pixels = gbuffer.data();
+      r.in = in;
+      r.history_pixels = history_pixels.data();
+      r.history = history.data();
+      r.width = W;
+      r.height = H;
+      r.sample = sample;
+      r.seed = frame.seed;
+      r.pass = pass;
+      return r;
+    };
     // Step `step` of sample `sample` over the tile [x0, x1) x [y0, y1); returns (samples done, samples total).
     auto run_step = [&](uint32_t sample, uint32_t step, int x0, int y0, int x1, int y1) {
       if (step == 0) {  // primary: the paths, their first vertex's reservoir into reservoirs[0]
@@ -577,16 +627,13 @@ class CpuBackend final : public Backend {
         return std::make_pair(uint64_t(0), uint64_t(0));
       }
       if (step <= temporal + passes) {  // reuse step - 1 (temporal first): reservoirs[(step - 1) % 2] -> [step % 2]
-        const Reservoir* in = reservoirs[(step - 1) % 2].data();
+        const RestirReuse r = reuse(sample, temporal && step == 1 ? kRestirTemporalPass : step - 1 - temporal,
+                                    reservoirs[(step - 1) % 2].data());
         Reservoir* out = reservoirs[step % 2].data();
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
-            const size_t p = size_t(y) * W + x;
-            out[p] = temporal && step == 1
-                         ? restir_temporal_reuse(tracer, view_, s.restir, gbuffer[p], in[p], history_pixels[p],
-                                                 history[p], uint32_t(p), sample, frame.seed)
-                         : restir_spatial_reuse(tracer, view_, s.restir, gbuffer.data(), in, W, H, x, y, sample,
-                                                frame.seed, step - 1 - temporal);
+            const uint32_t p = uint32_t(y) * uint32_t(W) + uint32_t(x);
+            out[p] = restir_reuse(tracer, view_, s.restir, r, p);
           }
         return std::make_pair(uint64_t(0), uint64_t(0));
       }
@@ -606,7 +653,7 @@ class CpuBackend final : public Backend {
       for_each_tile(W, H, count * phases_per_sample, progress, [&](uint32_t phase, int x0, int y0, int x1, int y1) {
         return run_step(first_sample + phase / phases_per_sample, phase % phases_per_sample, x0, y0, x1, y1);
       });
-    } else {  // the primary pass as waves over the whole frame (wavefront.h's RestirFrame), then the other steps
+    } else {  // every pass through the wavefront's stages: the primary pass as waves, the others as chunks
       struct RadianceSink {  // the path's radiance, its first vertex's direct light left out, to the pixel's record
         RestirPixel* pixels;
         Vec3 L;
@@ -614,13 +661,41 @@ class CpuBackend final : public Backend {
         void add(const Vec3& radiance, uint32_t) { L = radiance; }
         void end(uint32_t pixel) { pixels[pixel].L = L; }
       };
+      HostWavefront hw(uint32_t(std::min<uint64_t>(wavefront_paths_, pixels)));
+      const uint32_t n = uint32_t(pixels);
+      std::vector<Vec3> frame_L(pixels);
       for (uint32_t i = 0; i < count; ++i) {
         const uint32_t sample = first_sample + i;
-        run_waves(frame, sample, 1, RestirFrame{gbuffer.data(), reservoirs[0].data()},
+        run_waves(hw, frame, sample, 1, RestirFrame{gbuffer.data(), reservoirs[0].data()},
                   [&] { return RadianceSink{gbuffer.data(), Vec3(0.f)}; }, nullptr);
-        for_each_tile(W, H, phases_per_sample - 1, progress, [&](uint32_t phase, int x0, int y0, int x1, int y1) {
-          return run_step(sample, phase + 1, x0, y0, x1, y1);
-        });
+        int cur = 0;  // reservoirs[cur]: the latest
+        for (uint32_t step = 0; step < temporal + passes; ++step) {
+          const RestirReuse r =
+              reuse(sample, temporal && step == 0 ? kRestirTemporalPass : step - temporal, reservoirs[cur].data());
+          Reservoir* out = reservoirs[cur ^ 1].data();
+          restir_frame_pass(
+              hw, n, restir_reuse_max_rays(s.restir, r.pass),
+              [&](uint32_t k, const RestirChunk& c) { restir_reuse_record(k, hw.w, c, view_, s.restir, r); },
+              [&](uint32_t k, const RestirChunk& c) { restir_reuse_replay(k, hw.w, c, view_, s.restir, r, out); });
+          cur ^= 1;
+        }
+        const Reservoir* final_reservoirs = reservoirs[cur].data();
+        restir_frame_pass(
+            hw, n, restir_shade_max_rays(s.restir),
+            [&](uint32_t k, const RestirChunk& c) {
+              restir_shade_record(k, hw.w, c, view_, s, gbuffer.data(), final_reservoirs);
+            },
+            [&](uint32_t k, const RestirChunk& c) {
+              uint32_t rays = 0;
+              frame_L[c.first + k] = restir_shade_replay(k, hw.w, c, view_, s, gbuffer.data(), final_reservoirs, &rays);
+            });
+        for (uint32_t p = 0; p < n; ++p) {
+          if (temporal) history_pixels[p] = gbuffer[p], history[p] = final_reservoirs[p];
+          PixelSum ps;  // this sample's
+          ps.add(frame_L[p]);
+          add_to_film(film, int(p % uint32_t(W)), int(p / uint32_t(W)), W, ps);
+        }
+        if (progress) progress(uint64_t(i + 1) * pixels, total);
       }
     }
     film.add_samples(count);

@@ -36,7 +36,6 @@ class CudaTraversal {
 
   uint64_t device_bytes() const { return bytes_; }
   const BvhStats& stats() const { return stats_; }
-  const BvhView& view() const { return view_; }  // device pointers (kernels that trace inline)
 
  private:
   BvhView view_;  // device pointers

@@ -159,14 +159,17 @@ extern "C" __global__ void __raygen__restir_spatial() {
   uint32_t pixel;
   if (!launch_pixel(&x, &y, &pixel)) return;
   Tracer tracer;
-  if (p.restir_pass == kRestirTemporalPass)  // the same pixel's history (restir_history*)
-    p.restir_out[pixel] = restir_temporal_reuse<kAllFeatures>(
-        tracer, p.scene, p.integrator.restir, p.restir_pixels[pixel], p.restir_in[pixel],
-        p.restir_history_pixels[pixel], p.restir_history[pixel], pixel, p.first_sample, p.seed);
-  else
-    p.restir_out[pixel] = restir_spatial_reuse<kAllFeatures>(tracer, p.scene, p.integrator.restir, p.restir_pixels,
-                                                             p.restir_in, p.camera.width, p.camera.height, x, y,
-                                                             p.first_sample, p.seed, p.restir_pass);
+  RestirReuse r;  // restir_pass kRestirTemporalPass: the same pixel's history (restir_history*)
+  r.pixels = p.restir_pixels;
+  r.in = p.restir_in;
+  r.history_pixels = p.restir_history_pixels;
+  r.history = p.restir_history;
+  r.width = p.camera.width;
+  r.height = p.camera.height;
+  r.sample = p.first_sample;
+  r.seed = p.seed;
+  r.pass = p.restir_pass;
+  p.restir_out[pixel] = restir_reuse<kAllFeatures>(tracer, p.scene, p.integrator.restir, r, pixel);
   p.sum[pixel].w += float(tracer.rays);
 }
 

@@ -214,7 +214,7 @@ class OptixBackendImpl final : public OptixBackend {
       // Ordered after the previous launch on the stream; the host copy is staged
       // before cudaMemcpyAsync returns, so `p` may change right after.
       PN_CUDA(cudaEventRecord(s.start, stream_));
-      if (restir && wavefront_ && wavefront_->restir_inline()) {
+      if (restir && wavefront_) {
         RestirFrameBuffers b;
         b.pixels = restir_pixels_.as<RestirPixel>();
         b.reservoirs[0] = restir_a_.as<Reservoir>();
@@ -551,7 +551,7 @@ class OptixBackendImpl final : public OptixBackend {
   DeviceBuffer params_, counters_;
   DeviceBuffer launch_sum_, launch_sum_sq_, acc_sum_, acc_sum_sq_, acc_bad_;
   LaunchParams base_params_;
-  std::unique_ptr<WavefrontGpu> wavefront_;  // --wavefront: renders in place of the megakernel (restir's passes too with the cuda traversal)
+  std::unique_ptr<WavefrontGpu> wavefront_;  // --wavefront: renders in place of the megakernel, restir's passes too
 
   int width_ = 0, height_ = 0;
   uint64_t accumulated_ = 0;

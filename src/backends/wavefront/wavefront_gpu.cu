@@ -118,6 +118,51 @@ __global__ void __launch_bounds__(kBlock) accumulate_kernel() {
   }
 }
 
+// restir's frame passes after the primary pass (wavefront.h): chunks recorded, traced by the trace stage,
+// replayed. Every scene feature compiled in, as the megakernel's restir programs.
+__global__ void begin_shadow_batch_kernel() { begin_shadow_batch(WP().view); }
+
+__global__ void __launch_bounds__(kBlock) reuse_record_kernel(RestirChunk c, RestirReuse r) {
+  const WaveParams& p = WP();
+  for (uint32_t i = first_index(); i < c.count; i += stride())
+    restir_reuse_record(i, p.view, c, p.scene, p.integrator.restir, r);
+}
+
+__global__ void __launch_bounds__(kBlock) reuse_replay_kernel(RestirChunk c, RestirReuse r, Reservoir* out) {
+  const WaveParams& p = WP();
+  for (uint32_t i = first_index(); i < c.count; i += stride()) {
+    const uint32_t rays = restir_reuse_replay(i, p.view, c, p.scene, p.integrator.restir, r, out);
+    p.sum[c.first + i].w += float(rays);
+  }
+}
+
+__global__ void __launch_bounds__(kBlock) shade_record_kernel(RestirChunk c, const RestirPixel* pixels,
+                                                             const Reservoir* final_reservoirs) {
+  const WaveParams& p = WP();
+  for (uint32_t i = first_index(); i < c.count; i += stride())
+    restir_shade_record(i, p.view, c, p.scene, p.integrator, pixels, final_reservoirs);
+}
+
+// The frame's sample into the launch sums (as the megakernel's restir_shade program writes them); with temporal
+// reuse, the next sample's history kept.
+__global__ void __launch_bounds__(kBlock) shade_replay_kernel(RestirChunk c, const RestirPixel* pixels,
+                                                             const Reservoir* final_reservoirs,
+                                                             RestirPixel* history_pixels, Reservoir* history) {
+  const WaveParams& p = WP();
+  for (uint32_t i = first_index(); i < c.count; i += stride()) {
+    uint32_t rays = 0;
+    const Vec3 L = restir_shade_replay(i, p.view, c, p.scene, p.integrator, pixels, final_reservoirs, &rays);
+    const uint32_t pixel = c.first + i;
+    if (history) {
+      history_pixels[pixel] = pixels[pixel];
+      history[pixel] = final_reservoirs[pixel];
+    }
+    SampleSums<float> sums;
+    sums.add(L);
+    store_launch_sums(p.sum, p.sum_sq, pixel, sums, p.sum[pixel].w + float(rays));
+  }
+}
+
 // The cuda traversal as the trace stage.
 class CudaTraceStage final : public WavefrontTraceStage {
  public:
@@ -131,7 +176,6 @@ class CudaTraceStage final : public WavefrontTraceStage {
     traversal_.trace_shadow(q_.shadow_rays, q_.shadow_count, q_.capacity, q_.blocked_bits, scene_, stream);
   }
   std::string name() const override { return "cuda"; }
-  const CudaTraversal* cuda() const override { return &traversal_; }
 
  private:
   CudaTraversal traversal_;
@@ -298,11 +342,53 @@ void WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene,
 
 void WavefrontGpu::render_restir(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
                                  uint32_t sample, const RestirFrameBuffers& b, void* sum, void* sum_sq,
-                                 void* stream) {
-  if (!restir_inline()) throw std::logic_error("wavefront: restir's passes need the cuda traversal");
-  run(frame, device_scene, feature_level, sample, 1, RestirFrame{b.pixels, b.reservoirs[0]}, sum, sum_sq, stream);
-  cuda_restir_passes(*trace_->cuda(), device_scene, frame.integrator, frame.camera.width, frame.camera.height,
-                     sample, frame.seed, b, sum, sum_sq, stream);
+                                 void* stream_ptr) {
+  run(frame, device_scene, feature_level, sample, 1, RestirFrame{b.pixels, b.reservoirs[0]}, sum, sum_sq, stream_ptr);
+  cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
+  const IntegratorSettings& s = frame.integrator;
+  const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
+  const unsigned grid = unsigned(num_sms_) * 8u;
+  // Chunks of the frame: recorded and traced where the pass makes queries, then replayed (wavefront.h).
+  auto frame_pass = [&](uint32_t max_rays, auto&& record, auto&& replay) {
+    const uint32_t chunk = restir_chunk_pixels(view_, max_rays);
+    for (uint32_t first = 0; first < pixels; first += chunk) {
+      const RestirChunk c{first, chunk < pixels - first ? chunk : pixels - first, max_rays};
+      if (max_rays > 0) {
+        begin_shadow_batch_kernel<<<1, 1, 0, stream>>>();
+        record(c);
+        trace_->shadow(stream);
+      }
+      replay(c);
+      check(cudaGetLastError(), "restir's frame passes");
+    }
+  };
+  RestirReuse r;
+  r.pixels = b.pixels;
+  r.history_pixels = b.history_pixels;
+  r.history = b.history;
+  r.width = frame.camera.width;
+  r.height = frame.camera.height;
+  r.sample = sample;
+  r.seed = frame.seed;
+  const uint32_t temporal = s.restir.temporal ? 1u : 0u;
+  int cur = 0;  // b.reservoirs[cur]: the latest
+  for (uint32_t step = 0; step < temporal + s.restir.spatial_passes; ++step) {
+    r.pass = temporal && step == 0 ? kRestirTemporalPass : step - temporal;
+    r.in = b.reservoirs[cur];
+    Reservoir* out = b.reservoirs[cur ^ 1];
+    frame_pass(
+        restir_reuse_max_rays(s.restir, r.pass),
+        [&](const RestirChunk& c) { reuse_record_kernel<<<grid, kBlock, 0, stream>>>(c, r); },
+        [&](const RestirChunk& c) { reuse_replay_kernel<<<grid, kBlock, 0, stream>>>(c, r, out); });
+    cur ^= 1;
+  }
+  const Reservoir* final_reservoirs = b.reservoirs[cur];
+  frame_pass(
+      restir_shade_max_rays(s.restir),
+      [&](const RestirChunk& c) { shade_record_kernel<<<grid, kBlock, 0, stream>>>(c, b.pixels, final_reservoirs); },
+      [&](const RestirChunk& c) {
+        shade_replay_kernel<<<grid, kBlock, 0, stream>>>(c, b.pixels, final_reservoirs, b.history_pixels, b.history);
+      });
 }
 
 void WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,

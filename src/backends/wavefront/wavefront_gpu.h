@@ -10,7 +10,6 @@
 #include <memory>
 #include <string>
 
-#include "backends/cuda/restir_passes.h"
 #include "backends/trace_stage.h"
 #include "backends/wavefront/wavefront.h"
 #include "render/backend.h"
@@ -40,8 +39,14 @@ class WavefrontTraceStage {
   // syncs on an event of its own, which fails ("Error synching on OptixPipeline event", measured on the H200),
   // so a wave with the optix stage launches its kernels directly.
   virtual bool capturable() const { return true; }
-  // The cuda traversal, for kernels that trace inline (restir's reuse passes); null for optix.
-  virtual const CudaTraversal* cuda() const { return nullptr; }
+};
+
+// A frame's restir buffers in device memory, one entry a pixel.
+struct RestirFrameBuffers {
+  RestirPixel* pixels = nullptr;                  // the primary pass's records
+  Reservoir* reservoirs[2] = {nullptr, nullptr};  // [0]: the primary pass's; the passes ping-pong between them
+  RestirPixel* history_pixels = nullptr;          // temporal reuse (null without it): the previous sample's
+  Reservoir* history = nullptr;
 };
 
 // The cuda traversal (backends/cuda) as a wavefront's trace stage: builds and uploads the scene's BVH.
@@ -67,12 +72,11 @@ class WavefrontGpu {
 
   // One sample of every pixel by restir's frame passes (core/restir.h), queued on `stream`: the primary pass as
   // waves (RestirFrame: each path's first vertex writes its record and reservoir to b, its radiance less that
-  // vertex's direct light to the record, its rays to sum.w), then the reuse and shading passes tracing inline
-  // (cuda_restir_passes), which write the launch sums as render() does. Only with the cuda traversal
-  // (restir_inline()); the OptiX backend runs its own passes otherwise.
+  // vertex's direct light to the record, its rays to sum.w), then the reuse and shading passes in chunks, each
+  // recorded, traced by the trace stage and replayed (wavefront.h), the shading writing the launch sums as render()
+  // does. Either traversal.
   void render_restir(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t sample,
                      const RestirFrameBuffers& b, void* sum, void* sum_sq, void* stream);
-  bool restir_inline() const { return trace_->cuda() != nullptr; }
 
   uint32_t capacity() const { return capacity_; }
   uint64_t device_bytes() const { return bytes_; }
