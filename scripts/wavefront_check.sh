@@ -15,7 +15,7 @@
 #   3. independent seeds (CPU 0, wavefront 1): `penumbra compare` PASS (the z-test of gpu_check.sh);
 #   4. waves: a pool of 5,000 paths (PENUMBRA_WAVEFRONT_PATHS: many waves a launch, pixels cut anywhere) renders
 #      the default pool's image byte for byte (the accumulation sums each pixel's samples in order), and
-#      restir with spatial reuse (its frame passes, not the wavefront) still renders;
+#      restir with spatial reuse (its frame passes, in the wavefront since session 20) agrees with the CPU;
 #   5. compute-sanitizer --tool memcheck on short wavefront renders, both traversals: 0 errors;
 #   6. `penumbra bench` at 1920x1080, 1 spp a launch, depth 8, solid-angle: megakernel, wavefront optix,
 #      wavefront cuda on cornell-sphere and sponza (the targets: <= 2.0 and <= 8 ms per sample),
@@ -127,7 +127,7 @@ if listed many-spheres; then
     --set defaults.lights=200 &&
     render restir_passes_wf many-spheres solid-angle power 1 --backend optix --wavefront --light-selection restir \
       --set defaults.lights=200 && compare restir_passes_cpu restir_passes_wf >/dev/null
-  record "restir with spatial reuse under --wavefront (its passes): cpu == optix" $?
+  record "restir with spatial reuse in the wavefront (its frame passes as stages): cpu == optix" $?
 fi
 
 # 5. memcheck.

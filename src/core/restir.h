@@ -18,8 +18,11 @@
 //   4. shade: every pixel's direct light from its final reservoir, weighted by
 //      MIS against the BSDF sample that the path took (restir_shade), which
 //      becomes the next sample's history.
-// The CPU backend runs them with threads over tiles, the OptiX backend as
-// launches of their own raygen programs; both call these functions.
+// The CPU backend runs them with threads over tiles (or, in its Wavefront
+// schedule, as the GPU does), the GPU's wavefront as its stages (the primary
+// pass as waves, the others recorded, traced and replayed: backends/wavefront/
+// wavefront.h), the megakernel as launches of its own raygen programs; all call
+// these functions.
 //
 // Combination: reservoirs r_i with samples y_i, weights W_i and counts M_i are
 // resampled at pixel q.
