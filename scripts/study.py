@@ -128,6 +128,8 @@ def converge_cmd(args, r):
            "--reference-spp", str(r.cfg["reference_spp"]), "--reference-chunk", str(r.cfg["reference_chunk"]),
            "--max-spp", str(r.cfg["max_spp"]), "--seeds", str(r.cfg["seeds"]),
            "--strategies", ",".join(r.strategies), "--mis", ",".join(r.mis)]
+    if r.cfg.get("frame_spp"):
+        cmd += ["--frame-spp", str(r.cfg["frame_spp"])]
     if args.cache:
         cmd += ["--cache", args.cache]
     for s in r.sets:
@@ -150,7 +152,7 @@ def converge_options(args, r):
     return dict(backend=args.backend, gpus=args.gpus, width=r.cfg["width"], height=r.cfg["height"],
                 reference_spp=r.cfg["reference_spp"], reference_chunk=r.cfg["reference_chunk"],
                 max_spp=r.cfg["max_spp"], seeds=r.cfg["seeds"], strategies=list(r.strategies), mis=list(r.mis),
-                cache=args.cache, overrides=dict(parse_set(s) for s in r.sets))
+                frame_spp=r.cfg.get("frame_spp", 0), cache=args.cache, overrides=dict(parse_set(s) for s in r.sets))
 
 
 def python_converge(args, r, **kw):
@@ -874,18 +876,21 @@ def finish_lab(args, lab, out_dir, head, sweeps):
 # selected by power, is shared through the cache); the lights-count sweep of
 # many-spheres; and `penumbra bench` for cost and memory per method.
 MANY_PRESETS = {
-    "full": dict(headline=dict(width=960, height=540, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096),
+    "full": dict(headline=dict(width=960, height=540, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096,
+                               frame_spp=32),
                  lights=10000, counts=[10, 100, 1000, 10000, 100000],
                  sweep=dict(width=320, height=180, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096)),
     # The numbers: 10,000 lights at 1080p on the GPU.
-    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=4096),
+    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=4096,
+                              frame_spp=32),
                 lights=10000, counts=[10, 100, 1000, 10000, 100000],
                 sweep=dict(width=480, height=270, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096)),
     # At 24x16 every lamp is smaller than a pixel, and the pixels it covers in part escape the mask of lamp
     # pixels: the smoke runs look at the floor from below the lamps (none in view).
     # Four seeds: with two, one unbiased method's fitted slope fell to -0.12 in the sanitizer build (restir-bvh
     # with area sampling; -0.26 to -0.73 over pairs of seeds in the g++ build, -0.44 over twelve).
-    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=4, reference_chunk=512),
+    "smoke": dict(headline=dict(width=24, height=16, reference_spp=1024, max_spp=32, seeds=4, reference_chunk=512,
+                                frame_spp=16),
                   lights=500, counts=[10, 100, 1000],
                   sweep=dict(width=16, height=12, reference_spp=512, max_spp=16, seeds=2, reference_chunk=256),
                   sets=["camera.eye=[0,0.18,-3]", "camera.target=[0,0,-2.505]", "camera.fov=30"]),
@@ -1067,6 +1072,20 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
             w(f"| `{sel}` | " + " | ".join(fmt(many_efficiency(runs, sel, st)) for st in MANY_STRATEGIES) +
               f" | {fmt(rel)} | {ms:.3f} |")
         w("")
+        st_sa = many_technique("solid-angle")
+        if all("frame" in runs[sel]["strategies"][st_sa] for sel in MANY_SELECTIONS):
+            n = runs["power"]["strategies"][st_sa]["frame"]["spp"]
+            w(f"**A single frame** (solid-angle): the error of sample {n} alone, after {n - 1} samples of the same "
+              "render, as a real-time frame with that much history shows it (what temporal reuse is for; for the "
+              "other methods, one sample's error), and its efficiency 1 / (frame MSE x ms per sample) relative to "
+              "power's: the equal-time comparison of single frames that Bitterli et al. 2020 report.\n")
+            w("| selection | frame RMSE | frame efficiency vs power |")
+            w("| --- | ---: | ---: |")
+            base = runs["power"]["strategies"][st_sa]["frame"]["efficiency_nolight"]
+            for sel in MANY_SELECTIONS:
+                fr = runs[sel]["strategies"][st_sa]["frame"]
+                w(f"| `{sel}` | {fr['rmse_nolight']:.4g} | {fmt(fr['efficiency_nolight'] / base)} |")
+            w("")
         w("RMSE at the largest spp, slope of the log-log fit, and the image mean against the reference's (the "
           "bias, within the noise of both; solid-angle; pixels that see a lamp left out):\n")
         w("| selection | RMSE | slope | mean vs reference |")

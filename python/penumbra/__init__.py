@@ -360,7 +360,7 @@ def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str]
              overrides: Optional[Mapping[str, Any]] = None, backend: str = "auto", gpus: GpusLike = "all",
              threads: Optional[int] = None, cache: Optional[str] = None, out: Optional[str] = None,
              threshold: float = 0.05, crop_spp: int = 32, crop: Optional[Sequence[int]] = None, fit_min_spp: int = 4,
-             verbose: bool = False, yes: bool = False, estimate_only: bool = False,
+             frame_spp: int = 0, verbose: bool = False, yes: bool = False, estimate_only: bool = False,
              progress: Optional[ProgressFn] = None) -> ConvergeResult:
     """One convergence experiment, as ``penumbra converge`` runs it: a ground truth
     (cached under ``cache``, default ~/.cache/penumbra; rendered in chunks of
@@ -407,7 +407,7 @@ def _converge_options(scene: Union[str, "os.PathLike[str]"], options: Mapping[st
     o.reference_mis = a["reference_mis"]
     o.width = a["width"] or 0
     o.height = a["height"] or 0
-    for k in ("max_spp", "seeds", "reference_spp", "reference_chunk", "crop_spp", "fit_min_spp"):
+    for k in ("max_spp", "seeds", "reference_spp", "reference_chunk", "crop_spp", "fit_min_spp", "frame_spp"):
         setattr(o, k, a[k])
     o.threads = _threads(a["threads"])
     o.threshold = float(a["threshold"])

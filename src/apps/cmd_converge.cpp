@@ -56,6 +56,11 @@ Command add_converge_command(CLI::App& app) {
   sub->add_option("--crop-spp", a->crop_spp, "spp of the visual-comparison crops")
       ->capture_default_str()
       ->check(CLI::Range(1, 1 << 24));
+  sub->add_option("--frame-spp", a->frame_spp,
+                  "Also measure sample N alone after N - 1 of the same render (a real-time frame with N - 1 frames "
+                  "of history: restir's temporal reuse), from one more render a seed; 0: off")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1 << 24));
   sub->add_option("--crop", a->crop, "Crop rectangle x,y,w,h (default: around the light)")->delimiter(',')->expected(4);
   sub->add_option("--fit-min-spp", a->fit_min_spp, "Smallest spp used in the log-log fits")
       ->capture_default_str()

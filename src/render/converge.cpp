@@ -149,6 +149,9 @@ Setup prepare(const ConvergeOptions& a) {
   if (a.max_spp < 1 || a.seeds < 1 || a.reference_spp < 1 || a.crop_spp < 1 || a.reference_chunk < 1)
     throw std::invalid_argument(
         "converge: --max-spp, --seeds, --reference-spp, --reference-chunk and --crop-spp must be >= 1");
+  if (a.frame_spp != 0 && (a.frame_spp < 2 || a.frame_spp > a.max_spp || (a.frame_spp & (a.frame_spp - 1)) != 0))
+    throw std::invalid_argument("converge: --frame-spp must be 0 or one of the spp levels from 2 to --max-spp (" +
+                                std::to_string(a.max_spp) + "): a power of two, not " + std::to_string(a.frame_spp));
   s.crop = a.crop.empty() ? auto_crop(s.scene) : a.crop;
   const std::vector<int>& crop = s.crop;
   if (crop.size() != 4 || crop[2] < 1 || crop[3] < 1 || crop[0] < 0 || crop[1] < 0 || crop[0] + crop[2] > W ||
@@ -319,13 +322,15 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     double spp_total = 0;
     for (int s : spps) spp_total += s;
     FrameSpec f = frame_spec(scene);
+    const double calls = double(spps.size()) + (a.frame_spp ? 1 : 0);
+    if (a.frame_spp) spp_total += a.frame_spp - 1;
     for (const Technique& tq : techniques) {
       f.integrator.strategy = tq.strategy;
       f.integrator.mis = tq.mis;
       const bool same = tq.strategy == ref_technique.strategy && tq.mis == ref_technique.mis &&
                         f.integrator.light_selection == LightSelection::Power;
       const CallCost c = same ? ref_cost : measure_cost(*backend, f, W, H);
-      estimate += c.seconds(double(spps.size()) * a.seeds, spp_total * a.seeds);
+      estimate += c.seconds(calls * a.seeds, spp_total * a.seeds);
     }
   }
   log("converge: estimated run time %s on %s (%s): reference %d spp (%s), %zu techniques x %d seeds x 1..%d spp at "
@@ -448,6 +453,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   summary["fit_min_spp"] = a.fit_min_spp;
   summary["crop"] = crop;
   summary["crop_spp"] = a.crop_spp;
+  summary["frame_spp"] = a.frame_spp;
   summary["metrics"] =
       "RMSE: sqrt(mean over pixels and RGB channels of (test - ref)^2), linear radiance, unclamped (thesis eq. 4.1); "
       "relMSE: mean of (test - ref)^2 / (ref^2 + 0.01) (pbrt); *_nolight: without pixels that see a light directly";
@@ -455,6 +461,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
 
   uint64_t per_strategy = 0;
   for (int s : spps) per_strategy += uint64_t(s) * a.seeds;
+  if (a.frame_spp) per_strategy += uint64_t(a.frame_spp - 1) * a.seeds;
   ProgressBar bar("converging");
   uint64_t done_spp = 0, total_spp = per_strategy * techniques.size();
   for (const Technique& tq : techniques) {
@@ -465,6 +472,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     std::vector<double> lx, ly, lyn;
     json points = json::array();
     double ms_per_spp = 0;
+    json frame = json::object();  // --frame-spp: the last sample alone
     for (int spp : spps) {
       double rm = 0, rmn = 0, rel = 0, reln = 0, ms = 0, mean = 0, mean_nolight = 0;
       for (int seed = 1; seed <= a.seeds; ++seed) {
@@ -485,6 +493,21 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         ms += t / a.seeds;
         done_spp += spp;
         if (a.verbose) bar.update(done_spp, total_spp);
+        if (spp == a.frame_spp) {  // sample N alone: the N-spp render's sums less the (N - 1)-spp render's
+          Film before(W, H);
+          timed_render(*backend, f, before, 0, uint32_t(spp - 1), a.progress);
+          count_nonfinite(nonfinite_renders);
+          done_spp += spp - 1;
+          std::vector<float> last(img.size());
+          for (size_t i = 0; i < last.size(); ++i) last[i] = float(film.sum()[i] - before.sum()[i]);
+          const ErrorMetrics fa = error_metrics(last, ref), fn = error_metrics(last, ref, &mask);
+          auto add = [&](const char* k, double v) { frame[k] = frame.value(k, 0.0) + v / a.seeds; };
+          add("rmse", fa.rmse);
+          add("rmse_nolight", fn.rmse);
+          add("relmse", fa.relmse);
+          add("relmse_nolight", fn.relmse);
+          frame["spp"] = spp;
+        }
         if (spp == a.crop_spp && seed == 1 && !out.empty()) {
           write_crop(out + "/crop_" + name + ".npy", img, W, crop);
           write_image(out + "/image_" + name + "_" + std::to_string(spp) + "spp.png", W, H, img);
@@ -517,6 +540,12 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     double secs = last["time_ms"].get<double>() * 1e-3;
     js["efficiency"] = mse > 0 && secs > 0 ? 1.0 / (mse * secs) : 0.0;
     js["efficiency_nolight"] = mse_n > 0 && secs > 0 ? 1.0 / (mse_n * secs) : 0.0;
+    if (!frame.empty()) {
+      // A frame's efficiency: 1 / (its MSE x the time of one sample), per second of frame time.
+      const double fm = std::pow(frame["rmse_nolight"].get<double>(), 2), spp_secs = ms_per_spp * 1e-3;
+      frame["efficiency_nolight"] = fm > 0 && spp_secs > 0 ? 1.0 / (fm * spp_secs) : 0.0;
+      js["frame"] = frame;
+    }
     summary["strategies"][name] = js;
   }
   double secs = bar.finish();

@@ -35,6 +35,11 @@ struct ConvergeOptions {
   int width = 0, height = 0;  // 0: the scene's
   int max_spp = 1024, seeds = 4, reference_spp = 65536, crop_spp = 32, fit_min_spp = 4;
   int reference_chunk = 4096;  // samples per pixel of each chunk of the ground truth
+  // With N > 0 (one of the spp levels, N >= 2): the error of sample N alone, after N - 1 samples of the same
+  // render call (the difference of the N and N - 1 spp renders of each seed, one more render a seed), what a
+  // real-time frame shows after N - 1 frames of history (restir's temporal reuse; for independent samples, the
+  // error of one sample). summary.json: each technique's "frame".
+  int frame_spp = 0;
   int threads = 0;
   bool wavefront = true;           // GPU: the wavefront (BackendOptions::wavefront); --megakernel: false
   std::string traversal = "auto";  // GPU: --traversal
