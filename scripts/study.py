@@ -1045,7 +1045,8 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
     w("## What was measured\n")
     counts = [f"{cfg['lights']} lights in many-spheres"] if "many-spheres" in head else []
     if "sponza-lanterns" in head:
-        counts.append("320 lanterns in sponza-lanterns: 8 rows of 40")
+        n = head["sponza-lanterns"]["power"].get("lights", {}).get("sphere")  # converge's count (older runs: none)
+        counts.append(f"{n} sphere lights (lanterns) in sponza-lanterns" if n else "the lanterns of sponza-lanterns")
     if "many-spheres-direct" in head:
         counts.append("many-spheres-direct: many-spheres with direct lighting only, max depth 1, the setting of "
                       "the ReSTIR DI paper's numbers")

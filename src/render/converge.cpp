@@ -423,6 +423,14 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   summary["height"] = H;
   summary["max_depth"] = scene.render.max_depth;
   summary["overrides"] = a.sets;
+  {  // the scene's lights by kind (reports name them: "320 sphere lights")
+    static const char* kKinds[] = {"sphere", "quad", "triangle", "environment"};
+    int count[4] = {0, 0, 0, 0};
+    for (const Light& l : scene.lights) ++count[std::min<uint32_t>(uint32_t(l.type), 3u)];
+    json lights = json::object();
+    for (int k = 0; k < 4; ++k) lights[kKinds[k]] = count[k];
+    summary["lights"] = lights;
+  }
   // Image means, over all pixels and over those that see no light (the bias of
   // a method shows in them, within the noise of both).
   auto image_mean = [&](const std::vector<float>& img, bool nolight) {
