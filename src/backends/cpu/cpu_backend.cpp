@@ -490,6 +490,9 @@ class CpuBackend final : public Backend {
   template <class Record, class Replay>
   void restir_frame_pass(HostWavefront& hw, uint32_t pixels, uint32_t max_rays, Record&& record, Replay&& replay) {
     const uint32_t chunk = restir_chunk_pixels(hw.w, max_rays);
+    if (chunk == 0)
+      throw std::invalid_argument("restir: a pool of " + std::to_string(hw.w.capacity) + " paths holds less than one "
+                                  "pixel's " + std::to_string(max_rays) + " shadow queries");
     Tracer tracer{this};
     for (uint32_t first = 0; first < pixels; first += chunk) {
       const RestirChunk c{first, std::min(chunk, pixels - first), max_rays};

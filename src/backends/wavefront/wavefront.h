@@ -26,8 +26,8 @@
 // (core/restir.h) run their primary pass as a wavefront (RestirFrame below): one sample of every pixel, each
 // path's first vertex writing its pixel's record and reservoir (on_hit's RestirPrimaryOut), the reservoir's
 // visibility query (ShadowKind::Reservoir) in the shadow queue beside the others, and the accumulation writing
-// each path's radiance to its pixel's record instead of a sink. The reuse and shading passes follow as the
-// backend's own (they need the whole frame's reservoirs).
+// each path's radiance to its pixel's record instead of a sink. The reuse and shading passes follow over the
+// whole frame, each recorded, traced and replayed in chunks of pixels (the last section of this file).
 //
 // Plain pointers and PN_HD code: the CPU backend runs these in loops (CpuSchedule::Wavefront), the GPU in kernels
 // (wavefront_gpu.cu).

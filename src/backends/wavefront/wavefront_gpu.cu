@@ -351,6 +351,10 @@ void WavefrontGpu::render_restir(const FrameSpec& frame, const SceneView& device
   // Chunks of the frame: recorded and traced where the pass makes queries, then replayed (wavefront.h).
   auto frame_pass = [&](uint32_t max_rays, auto&& record, auto&& replay) {
     const uint32_t chunk = restir_chunk_pixels(view_, max_rays);
+    if (chunk == 0)
+      throw std::runtime_error("wavefront: a pool of " + std::to_string(capacity_) + " paths holds less than one "
+                               "pixel's " + std::to_string(max_rays) + " restir shadow queries "
+                               "(PENUMBRA_WAVEFRONT_PATHS sets a larger pool)");
     for (uint32_t first = 0; first < pixels; first += chunk) {
       const RestirChunk c{first, chunk < pixels - first ? chunk : pixels - first, max_rays};
       if (max_rays > 0) {
