@@ -12,6 +12,10 @@ import penumbra
 CHILD = textwrap.dedent("""
     import os, signal, sys, threading, time
     import penumbra
+    # A process started with SIGINT ignored (a shell's background job without job control: `cmd &` in a script)
+    # passes that on, and Python then installs no KeyboardInterrupt handler: install it, as an interactive
+    # session has it.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     backend, width, height, spp = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
     r = penumbra.Renderer("cornell-sphere", backend=backend, width=width, height=height)
     r.render(1)
@@ -44,7 +48,7 @@ def interrupted_render(backend, width, height, spp):
 
 
 def test_ctrl_c_interrupts_a_render():
-    # About 20 s of work on two cores, in tiles of 16x16 pixels x 256 samples.
+    # About 5 s of work on two cores, in tiles of 16x16 pixels x 256 samples.
     seconds, spp = interrupted_render("cpu", 320, 180, 256)
     assert seconds < 5.0
     assert spp == 1  # the interrupted call added nothing; the first call's sample stays
