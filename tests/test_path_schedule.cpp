@@ -161,6 +161,10 @@ const Case kWavefrontCases[] = {
                       "render.strategy=area"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.temporal=true",
                       "render.restir.spatial_passes=1", "render.restir.source=bvh"}},
+    // 6 close neighbours with the generalized balance heuristic: up to 42 queries a pixel, so a pool of 700 holds
+    // chunks of 16 pixels (the bound and the chunking, where most neighbours are found).
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.neighbors=6",
+                      "render.restir.radius=4"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=power", "render.max_depth=1"}},
 };
 
