@@ -51,9 +51,8 @@ void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversa
   *wavefront = true;
   *traversal = "auto";
   auto* wf = sub->add_flag("--wavefront", *wavefront,
-                           "GPU: the wavefront path tracer (kernels per stage over a pool of paths), the default; "
-                           "restir's frame passes too with the cuda traversal (with optix they are the "
-                           "megakernel's). The cpu backend ignores it");
+                           "GPU: the wavefront path tracer (kernels per stage over a pool of paths, restir's frame "
+                           "passes included), the default. The cpu backend ignores it");
   sub->add_flag_callback(
          "--megakernel", [wavefront]() { *wavefront = false; },
          "GPU: the megakernel (the whole path loop in one OptiX raygen program) instead of the wavefront")

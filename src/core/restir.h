@@ -234,6 +234,14 @@ PN_HD Reservoir restir_temporal_reuse(const Tracer& tracer, const SceneView& sce
   return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, 2, rng, rs.pairwise != 0);
 }
 
+// The reuse steps of a frame, in order: temporal reuse first (with `temporal`), then the spatial passes.
+PN_FN uint32_t restir_reuse_steps(const RestirSettings& rs) { return (rs.temporal ? 1u : 0u) + rs.spatial_passes; }
+
+// The pass of reuse step `step` (< restir_reuse_steps): kRestirTemporalPass or a spatial pass's number.
+PN_FN uint32_t restir_reuse_pass(const RestirSettings& rs, uint32_t step) {
+  return rs.temporal ? (step == 0 ? kRestirTemporalPass : step - 1u) : step;
+}
+
 // One reuse pass of a frame at one pixel: `pass` is kRestirTemporalPass (temporal reuse, with the history) or a
 // spatial pass's number. Every backend's reuse runs this.
 struct RestirReuse {

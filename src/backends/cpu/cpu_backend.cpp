@@ -490,9 +490,6 @@ class CpuBackend final : public Backend {
   template <class Record, class Replay>
   void restir_frame_pass(HostWavefront& hw, uint32_t pixels, uint32_t max_rays, Record&& record, Replay&& replay) {
     const uint32_t chunk = restir_chunk_pixels(hw.w, max_rays);
-    if (chunk == 0)
-      throw std::invalid_argument("restir: a pool of " + std::to_string(hw.w.capacity) + " paths holds less than one "
-                                  "pixel's " + std::to_string(max_rays) + " shadow queries");
     Tracer tracer{this};
     for (uint32_t first = 0; first < pixels; first += chunk) {
       const RestirChunk c{first, std::min(chunk, pixels - first), max_rays};
@@ -583,7 +580,7 @@ class CpuBackend final : public Backend {
     const size_t pixels = size_t(W) * H;
     const IntegratorSettings& s = frame.integrator;
     const uint32_t temporal = s.restir.temporal ? 1u : 0u;
-    const uint32_t passes = s.restir.spatial_passes, phases_per_sample = temporal + passes + 2;
+    const uint32_t steps = restir_reuse_steps(s.restir), phases_per_sample = steps + 2;
     std::vector<RestirPixel> gbuffer(pixels);
     std::vector<Reservoir> reservoirs[2] = {std::vector<Reservoir>(pixels), std::vector<Reservoir>(pixels)};
     std::vector<RestirPixel> history_pixels(temporal ? pixels : 0);  // valid = 0: no history yet
@@ -629,9 +626,8 @@ class CpuBackend final : public Backend {
           }
         return std::make_pair(uint64_t(0), uint64_t(0));
       }
-      if (step <= temporal + passes) {  // reuse step - 1 (temporal first): reservoirs[(step - 1) % 2] -> [step % 2]
-        const RestirReuse r = reuse(sample, temporal && step == 1 ? kRestirTemporalPass : step - 1 - temporal,
-                                    reservoirs[(step - 1) % 2].data());
+      if (step <= steps) {  // reuse step - 1 (temporal first): reservoirs[(step - 1) % 2] -> [step % 2]
+        const RestirReuse r = reuse(sample, restir_reuse_pass(s.restir, step - 1), reservoirs[(step - 1) % 2].data());
         Reservoir* out = reservoirs[step % 2].data();
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
@@ -640,7 +636,7 @@ class CpuBackend final : public Backend {
           }
         return std::make_pair(uint64_t(0), uint64_t(0));
       }
-      const Reservoir* final_reservoirs = reservoirs[(temporal + passes) % 2].data();  // shading
+      const Reservoir* final_reservoirs = reservoirs[steps % 2].data();  // shading
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
           const size_t p = size_t(y) * W + x;
@@ -672,9 +668,8 @@ class CpuBackend final : public Backend {
         run_waves(hw, frame, sample, 1, RestirFrame{gbuffer.data(), reservoirs[0].data()},
                   [&] { return RadianceSink{gbuffer.data(), Vec3(0.f)}; }, nullptr);
         int cur = 0;  // reservoirs[cur]: the latest
-        for (uint32_t step = 0; step < temporal + passes; ++step) {
-          const RestirReuse r =
-              reuse(sample, temporal && step == 0 ? kRestirTemporalPass : step - temporal, reservoirs[cur].data());
+        for (uint32_t step = 0; step < steps; ++step) {
+          const RestirReuse r = reuse(sample, restir_reuse_pass(s.restir, step), reservoirs[cur].data());
           Reservoir* out = reservoirs[cur ^ 1].data();
           restir_frame_pass(
               hw, n, restir_reuse_max_rays(s.restir, r.pass),

@@ -284,13 +284,9 @@ class OptixBackendImpl final : public OptixBackend {
     if (p.integrator.restir.temporal) {
       p.restir_history_pixels = restir_history_pixels_.as<RestirPixel>();
       p.restir_history = restir_history_.as<Reservoir>();
-      p.restir_pass = kRestirTemporalPass;
-      PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
-      PN_OPTIX(optixLaunch(pipeline_.get(), stream_, params_.dptr(), sizeof(LaunchParams), &sbt, W, H, 1));
-      std::swap(p.restir_in, p.restir_out);
     }
-    for (uint32_t pass = 0; pass < p.integrator.restir.spatial_passes; ++pass) {
-      p.restir_pass = pass;
+    for (uint32_t step = 0; step < restir_reuse_steps(p.integrator.restir); ++step) {
+      p.restir_pass = restir_reuse_pass(p.integrator.restir, step);
       PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
       PN_OPTIX(optixLaunch(pipeline_.get(), stream_, params_.dptr(), sizeof(LaunchParams), &sbt, W, H, 1));
       std::swap(p.restir_in, p.restir_out);

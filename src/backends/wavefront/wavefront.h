@@ -34,9 +34,8 @@
 #pragma once
 
 #include <cstdint>
-#if !defined(__CUDA_ARCH__)
 #include <stdexcept>
-#endif
+#include <string>
 
 #include "backends/trace_stage.h"
 #include "core/camera.h"
@@ -328,8 +327,13 @@ struct ReplayShadowQueries {
   }
 };
 
-// Pixels a chunk may hold with the pool's capacity.
-PN_FN uint32_t restir_chunk_pixels(const WavefrontView& w, uint32_t max_rays) {
+// Pixels a chunk may hold with the pool's capacity (host code: the backends' pass loops). A pool smaller than one
+// pixel's queries is an error, not an endless loop of empty chunks.
+inline uint32_t restir_chunk_pixels(const WavefrontView& w, uint32_t max_rays) {
+  if (max_rays > w.capacity)
+    throw std::invalid_argument("restir: a wavefront pool of " + std::to_string(w.capacity) +
+                                " paths holds less than one pixel's " + std::to_string(max_rays) +
+                                " shadow queries (PENUMBRA_WAVEFRONT_PATHS sets the GPU's pool)");
   return max_rays ? w.capacity / max_rays : w.capacity;
 }
 

@@ -351,10 +351,6 @@ void WavefrontGpu::render_restir(const FrameSpec& frame, const SceneView& device
   // Chunks of the frame: recorded and traced where the pass makes queries, then replayed (wavefront.h).
   auto frame_pass = [&](uint32_t max_rays, auto&& record, auto&& replay) {
     const uint32_t chunk = restir_chunk_pixels(view_, max_rays);
-    if (chunk == 0)
-      throw std::runtime_error("wavefront: a pool of " + std::to_string(capacity_) + " paths holds less than one "
-                               "pixel's " + std::to_string(max_rays) + " restir shadow queries "
-                               "(PENUMBRA_WAVEFRONT_PATHS sets a larger pool)");
     for (uint32_t first = 0; first < pixels; first += chunk) {
       const RestirChunk c{first, chunk < pixels - first ? chunk : pixels - first, max_rays};
       if (max_rays > 0) {
@@ -374,10 +370,9 @@ void WavefrontGpu::render_restir(const FrameSpec& frame, const SceneView& device
   r.height = frame.camera.height;
   r.sample = sample;
   r.seed = frame.seed;
-  const uint32_t temporal = s.restir.temporal ? 1u : 0u;
   int cur = 0;  // b.reservoirs[cur]: the latest
-  for (uint32_t step = 0; step < temporal + s.restir.spatial_passes; ++step) {
-    r.pass = temporal && step == 0 ? kRestirTemporalPass : step - temporal;
+  for (uint32_t step = 0; step < restir_reuse_steps(s.restir); ++step) {
+    r.pass = restir_reuse_pass(s.restir, step);
     r.in = b.reservoirs[cur];
     Reservoir* out = b.reservoirs[cur ^ 1];
     frame_pass(
