@@ -170,6 +170,29 @@ const Case kWavefrontCases[] = {
 
 INSTANTIATE_TEST_SUITE_P(Builtins, Wavefront, ::testing::ValuesIn(kWavefrontCases), case_name);
 
+// restir's reuse passes keep each pixel's shadow queries in the pool: a pool smaller than one pixel's (16
+// neighbours with the generalized balance heuristic: 272) is a one-line error; one that holds exactly one pixel's
+// renders, a pixel a chunk, the depth-first image; and the default pool, one path a pixel, grows to one pixel's
+// queries where the frame (here 96 pixels) has fewer pixels than that.
+TEST(WavefrontRestir, PoolSmallerThanOnePixelsQueriesIsAnError) {
+  const Case c{"many-spheres", {"defaults.lights=50", "render.light_selection=restir", "render.restir.neighbors=16",
+                                "render.restir.radius=3", "render.restir.spatial_passes=1", "render.width=12",
+                                "render.height=8"}};
+  std::string missing;
+  const Scene scene = load_case(c, &missing);
+  ASSERT_TRUE(missing.empty()) << missing;
+  try {
+    render(scene, CpuSchedule::Wavefront, 0, 1, 3, 271);
+    FAIL() << "a pool of 271 paths took restir's 272 queries a pixel";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("272 shadow queries"), std::string::npos) << e.what();
+  }
+  const Image depth = render(scene, CpuSchedule::DepthFirst, 0, 2, 3);
+  ASSERT_GT(total(depth.sum), 0.0);
+  EXPECT_EQ(depth.sum, render(scene, CpuSchedule::Wavefront, 0, 2, 3, 272).sum);
+  EXPECT_EQ(depth.sum, render(scene, CpuSchedule::Wavefront, 0, 2, 3).sum);
+}
+
 // The pool's bytes per path from the sizes of its arrays, and at 1080p (one slot per pixel: one sample of every
 // pixel in one wave, the GPU's default pool) under the 1 GiB.
 TEST(WavefrontMemory, PoolAt1080pIsUnderOneGiB) {

@@ -660,7 +660,11 @@ class CpuBackend final : public Backend {
         void add(const Vec3& radiance, uint32_t) { L = radiance; }
         void end(uint32_t pixel) { pixels[pixel].L = L; }
       };
-      HostWavefront hw(uint32_t(std::min<uint64_t>(wavefront_paths_, pixels)));
+      // A pool of one path a pixel (at most wavefront_paths_), and at least one pixel's shadow queries of a pass.
+      uint32_t queries = restir_shade_max_rays(s.restir);
+      for (uint32_t step = 0; step < steps; ++step)
+        queries = std::max(queries, restir_reuse_max_rays(s.restir, restir_reuse_pass(s.restir, step)));
+      HostWavefront hw(uint32_t(std::min<uint64_t>(wavefront_paths_, std::max<uint64_t>(pixels, queries))));
       const uint32_t n = uint32_t(pixels);
       std::vector<Vec3> frame_L(pixels);
       for (uint32_t i = 0; i < count; ++i) {
