@@ -975,7 +975,8 @@ def many_bench(args, cfg, out_dir):
         path = os.path.join(out_dir, "runs", f"bench-{n}.json")
         os.makedirs(os.path.dirname(path), exist_ok=True)
         cmd = [args.penumbra, "bench", "--backend", args.backend, "--scenes", "many-spheres", "--set",
-               f"defaults.lights={n}", "--selections", ",".join(["uniform", "power", "bvh", "restir"]),
+               f"defaults.lights={n}", "--set", "render.restir.pairwise=true",  # restir as MANY_SELECTIONS runs it
+               "--selections", ",".join(["uniform", "power", "bvh", "restir"]),
                "--strategies", "solid-angle", "--mis", "power", "--width", str(cfg["sweep"]["width"]), "--height",
                str(cfg["sweep"]["height"]), "--launches", "5" if args.preset == "smoke" else "20", "--json", path]
         if not args.report_only:
@@ -1116,7 +1117,7 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         w("")
     if bench:
         w("## Cost and memory per method (`penumbra bench`, many-spheres)\n")
-        w("ms per launch of 1 spp (solid-angle + power); memory: the power CDF (4 bytes a light), the light BVH "
+        w("ms per launch of 1 spp (solid-angle + power; restir with pairwise MIS, as above); memory: the power CDF (4 bytes a light), the light BVH "
           "(nodes and trails, also uploaded to the GPU), restir's per-pixel buffers at this resolution.\n")
         w("| lights | uniform | power | bvh | restir | BVH build ms | BVH MiB | power CDF MiB | restir MiB |")
         w("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")

@@ -25,8 +25,8 @@ def test_frame_error_is_sample_n_alone(tmp_path, scene, overrides):
     frame = res.summary["strategies"]["solid-angle+power"]["frame"]
     assert frame["spp"] == n and res.summary["frame_spp"] == n
     ref = penumbra.read_exr(res.summary["reference"]["file"])
-    # converge's mask: pixels with any emission seen by camera rays at max depth 0 (16 spp, the scene's seed).
-    lamps = penumbra.render(scene, backend="cpu", width=w, height=h, spp=16, max_depth=0,
+    # converge's mask: pixels with any emission seen by camera rays at max depth 0 (1,024 spp, the scene's seed).
+    lamps = penumbra.render(scene, backend="cpu", width=w, height=h, spp=1024, max_depth=0,
                             overrides=overrides).rgb.sum(axis=-1) > 0
     keep = np.repeat(~lamps[..., None], 3, axis=-1)
     kw = dict(backend="cpu", width=w, height=h, strategy="solid-angle", mis="power", seed=1, overrides=overrides)
