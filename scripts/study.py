@@ -1027,6 +1027,8 @@ def plot_many_sweep(counts, sweep, value, ylabel, title, path):
 def many_report_name(head):
     """README.md for a study with many-spheres (the issue's numbers); <scene>.md for another scene run alone
     (sponza-lanterns at its own preset), so that the two reports sit side by side."""
+    if not head:  # the lights-count sweep alone (--only sweeps)
+        return "sweep.md", "many_lights_sweep.json"
     return ("README.md", "many_lights.json") if "many-spheres" in head else \
         (f"{'-'.join(head)}.md", f"many_lights_{'-'.join(head)}.json")
 
@@ -1034,7 +1036,7 @@ def many_report_name(head):
 def write_many_report(args, cfg, head, sweep, bench, out_dir):
     fig_dir = os.path.join(out_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
-    env = next(iter(head.values()))["power"]
+    env = next(iter(head.values()))["power"] if head else sweep["power"][0]
     info = env.get("device_info", {})
     h, sw = cfg["headline"], cfg["sweep"]
     lines = []
@@ -1044,26 +1046,31 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
       f"{datetime.date.today().isoformat()}, penumbra commit `{env.get('git_commit', 'unknown')}`, backend "
       f"**{env['backend']}** ({env['device']}" + "".join(f", {k} {v}" for k, v in info.items()) + ").\n")
     w("## What was measured\n")
-    counts = [f"{cfg['lights']} lights in many-spheres"] if "many-spheres" in head else []
-    if "sponza-lanterns" in head:
-        n = head["sponza-lanterns"]["power"].get("lights", {}).get("sphere")  # converge's count (older runs: none)
-        counts.append(f"{n} sphere lights (lanterns) in sponza-lanterns" if n else "the lanterns of sponza-lanterns")
-    if "many-spheres-direct" in head:
-        counts.append("many-spheres-direct: many-spheres with direct lighting only, max depth 1, the setting of "
-                      "the ReSTIR DI paper's numbers")
-    w(f"- Scenes: {', '.join(head)} ({'; '.join(counts)}) at {h['width']}x{h['height']}, max depth "
-      f"8 unless said otherwise, MIS power; ground truth {h['reference_spp']} spp selected by power (solid-angle); renders at 1, 2, ..., "
-      f"{h['max_spp']} spp, {h['seeds']} seeds.")
-    restir_env = next(iter(head.values())).get("restir", {})
-    w("- Selection methods: " + ", ".join(f"`{s}`" for s in MANY_SELECTIONS) + ". `restir`: " +
-      restir_env.get("light_selection", "?") + "; see the runs' summary.json for each method's settings. "
-      "**`restir-biased` is the paper's biased combination: its error includes its bias.** "
-      "**`restir-temporal`'s samples are correlated within a render** (each takes its pixel's last reservoir): "
-      "its error is measured as it is, at each spp, over independent seeds; its slope is not -1/2.")
-    w("- Time: GPU time (CUDA events) on the GPU, wall time on the CPU. **Efficiency** = 1 / (MSE x time) at the "
-      "largest spp, relative to `power` with the same strategy (> 1: better at equal time); relMSE-efficiency the "
-      "same with relMSE (pbrt's, (x - ref)^2 / (ref^2 + 0.01)). Both **without the pixels that see a lamp "
-      "directly** (their pixel-coverage noise is the same for every method and far above the rest).\n")
+    if not head:
+        w("- The lights-count sweep and `penumbra bench` per count (below); time: GPU time (CUDA events) on the GPU, "
+          "wall time on the CPU; efficiency = 1 / (MSE x time) at the largest spp relative to `power`, without the "
+          "pixels that see a lamp directly.\n")
+    if head:
+        counts = [f"{cfg['lights']} lights in many-spheres"] if "many-spheres" in head else []
+        if "sponza-lanterns" in head:
+            n = head["sponza-lanterns"]["power"].get("lights", {}).get("sphere")  # converge's count (older runs: none)
+            counts.append(f"{n} sphere lights (lanterns) in sponza-lanterns" if n else "the lanterns of sponza-lanterns")
+        if "many-spheres-direct" in head:
+            counts.append("many-spheres-direct: many-spheres with direct lighting only, max depth 1, the setting of "
+                          "the ReSTIR DI paper's numbers")
+        w(f"- Scenes: {', '.join(head)} ({'; '.join(counts)}) at {h['width']}x{h['height']}, max depth "
+          f"8 unless said otherwise, MIS power; ground truth {h['reference_spp']} spp selected by power (solid-angle); renders at 1, 2, ..., "
+          f"{h['max_spp']} spp, {h['seeds']} seeds.")
+        restir_env = next(iter(head.values())).get("restir", {})
+        w("- Selection methods: " + ", ".join(f"`{s}`" for s in MANY_SELECTIONS) + ". `restir`: " +
+          restir_env.get("light_selection", "?") + "; see the runs' summary.json for each method's settings. "
+          "**`restir-biased` is the paper's biased combination: its error includes its bias.** "
+          "**`restir-temporal`'s samples are correlated within a render** (each takes its pixel's last reservoir): "
+          "its error is measured as it is, at each spp, over independent seeds; its slope is not -1/2.")
+        w("- Time: GPU time (CUDA events) on the GPU, wall time on the CPU. **Efficiency** = 1 / (MSE x time) at the "
+          "largest spp, relative to `power` with the same strategy (> 1: better at equal time); relMSE-efficiency the "
+          "same with relMSE (pbrt's, (x - ref)^2 / (ref^2 + 0.01)). Both **without the pixels that see a lamp "
+          "directly** (their pixel-coverage noise is the same for every method and far above the rest).\n")
     for scene, runs in head.items():
         w(f"## {scene}: efficiency relative to `power`\n")
         w("| selection | " + " | ".join(f"`{st}`" for st in MANY_STRATEGIES) + " | relMSE-efficiency (solid-angle) | ms/spp (solid-angle) |")
@@ -1166,7 +1173,7 @@ def finish_many_lights(args, cfg, out_dir, plan_, head, sweep):
     """The many-lights part's bench runs, report and (with --check) assertions. False: a check failed."""
     head = many_group(plan_, head)
     bench = many_bench(args, cfg, out_dir) if args.only != "headline" else []
-    if head and not args.no_report:
+    if (head or sweep) and not args.no_report:
         write_many_report(args, cfg, head, sweep, bench, out_dir)
         log(f"study: wrote {os.path.join(out_dir, many_report_name(head)[0])}")
     return not (args.check and "many-spheres" in head and not many_check(head, sweep))
