@@ -12,8 +12,8 @@
 // The importance of a node at a shading point p with normal n bounds what its
 // lights can contribute there:
 //     I = phi * cos(theta') / d^2 * cos(theta'_i)
-// where d is the distance from p to the box's centre (never taken below the
-// box's bounding radius), theta' the smallest angle any emitting normal of the
+// where d is the distance from p to the box's centre (never taken below a
+// quarter of the box's bounding radius r), theta' the smallest angle any emitting normal of the
 // node can make with the direction to p (theta_w - theta_o - theta_b, clamped
 // at 0; theta_w: between w and the direction from the box to p, theta_b: the
 // half angle the box's bounding sphere subtends at p), and theta'_i the
@@ -30,6 +30,14 @@
 // k (1: the second), above the highest set bit nothing, so that trail 1 is the
 // root and 0 marks a light outside the tree (the environment, lights of zero
 // power).
+//
+// The clamp of d: at r (the first choice), every point within r of two large
+// siblings' centres, which on many-spheres' slab of lamps is every floor point
+// for the upper levels, saw them as equally important wherever it was; at r / 4
+// the nearer one wins. The MSE of a direct-lighting sample there (10,000 lamps,
+// 192x108, against power's) fell from 0.49 to 0.18 (r / 2: 0.19, r / 10: 0.18,
+// pbrt-v4's d^2 >= |diagonal| / 2, which is not scale-invariant: 0.20), and
+// neither sponza-lanterns (0.081 to 0.079) nor polygon-near (0.43 to 0.42) lost.
 //
 // The tree is built on the host (scene/light_bvh_build.cpp) and stored flat:
 // node i's first child is node i + 1, its second `index`; a leaf holds its
@@ -69,7 +77,7 @@ PN_FN float light_bvh_importance(const LightBvhNode& b, Vec3 p, Vec3 n) {
   const Vec3 to_p = p - pc;
   const float dist2 = length_sq(to_p);
   const float r2 = length_sq(b.hi - b.lo) * 0.25f;  // the box's bounding sphere, squared radius
-  const float d2 = pn_max(dist2, r2);
+  const float d2 = pn_max(dist2, r2 * (1.f / 16.f));  // d >= r / 4 (see above)
   if (!(d2 > 0.f)) return 0.f;
   // Angles: theta_b (the bounding sphere seen from p; every direction when p is inside it).
   float cos_b = -1.f, sin_b = 0.f;
