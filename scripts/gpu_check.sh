@@ -25,7 +25,8 @@
 #      CPU and GPU must agree on
 #      its expectation too; restir with temporal reuse; restir's frame passes
 #      with the wavefront's optix trace stage beside the default (cuda traversal
-#      on a GPU without RT cores), and as the megakernel's OptiX programs) on GPU_CHECK_SELECTION_SCENES (default many-spheres
+#      on a GPU without RT cores), and restir without reuse on the megakernel, whose restir with reuse must
+#      be a one-line error) on GPU_CHECK_SELECTION_SCENES (default many-spheres
 #      at 2000 lights, sponza-lanterns, glossy: the environment beside the
 #      light BVH), CPU against GPU with independent seeds, and bvh and restir
 #      with the same seed; restir's frame passes on the GPU (spatial reuse and
@@ -138,8 +139,19 @@ done
 
 # 3. Light selection: every method, CPU against GPU (solid-angle, MIS power).
 echo "== light selection: CPU vs GPU"
+# restir's reuse has no megakernel path (core/restir.h): --megakernel must say so in one line and exit non-zero,
+# never hang (its OptiX passes, removed, hung with the generalized balance heuristic).
+if listed many-spheres; then
+  timeout 60 "$penumbra" render many-spheres --backend optix --megakernel --light-selection restir --width 16 \
+    --height 16 --spp 1 -o "$out/megakernel_restir.exr" >"$out/megakernel_restir.log" 2>&1
+  st=$?
+  cat "$out/megakernel_restir.log"
+  [[ $st != 0 && $st != 124 && $(grep -c -- "--megakernel: restir" "$out/megakernel_restir.log") == 1 && \
+     ! -e "$out/megakernel_restir.exr" ]]
+  record "many-spheres restir --megakernel: a one-line error, no image" $?
+fi
 # method[:extra args, comma-separated]: the name is the spec with ':' and ',' and '=' made '_'.
-selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-biased restir:--restir-temporal restir:--traversal=optix restir:--megakernel"}
+selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-biased restir:--restir-temporal restir:--traversal=optix restir:--megakernel,--restir-spatial=0"}
 selection_scenes=${GPU_CHECK_SELECTION_SCENES:-"many-spheres sponza-lanterns glossy"}
 for scene in $selection_scenes; do
   if ! listed "$scene"; then echo "skip: $scene is not a built-in scene of this build"; continue; fi

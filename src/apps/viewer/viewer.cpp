@@ -521,7 +521,12 @@ double Viewer::render_samples() {
   }
   for (size_t i = 0; i < sides_.size(); ++i) {
     auto ts = Clock::now();
-    sides_[i].image->add_samples(n[i]);
+    try {
+      sides_[i].image->add_samples(n[i]);
+    } catch (const std::invalid_argument& e) {  // settings this backend cannot render (restir's reuse on --megakernel)
+      status_ = e.what();
+      continue;
+    }
     sides_[i].seconds += ms_since(ts) * 1e-3;
     // Samples that were NaN or infinite: left out by the backend; said once, and in the exit status.
     const RenderStats st = backend_->last_render_stats();

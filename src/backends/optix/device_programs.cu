@@ -15,8 +15,9 @@
 // core's alpha_discards(), as the CPU's Embree filter functions do. Geometry
 // without a masked material has any-hit disabled (geometry and instance flags;
 // the ray flags too when the scene has no masked material at all).
-// No shading happens outside render_sample, restir's passes and the denoiser's
-// guides (render_guides_pixel), all core functions.
+// No shading happens outside render_sample and the denoiser's guides
+// (render_guides_pixel), both core functions. restir's frame passes (spatial
+// and temporal reuse) run in the wavefront (backends/wavefront), not here.
 #include <optix.h>
 
 #include "backends/optix/launch_params.h"
@@ -24,7 +25,6 @@
 #include "core/aov.h"
 #include "core/geometry.h"
 #include "core/integrator.h"
-#include "core/restir.h"
 #include "core/scene_view.h"
 
 namespace pn {
@@ -106,12 +106,6 @@ __forceinline__ __device__ void render_pixels() {
   for (uint32_t pixel = idx.y * dim.x + idx.x; pixel < pixels; pixel += threads) {
     const int px = int(pixel % width), py = int(pixel / width);
     Tracer tracer;
-    if (p.restir_pixels) {  // restir's primary pass: one sample, its first vertex's direct light left out
-      RestirPrimaryOut out{&p.restir_pixels[pixel], &p.restir_in[pixel]};
-      out.pixel->L = render_sample<kFeatures>(tracer, p.scene, p.camera, settings, px, py, p.first_sample, p.seed, &out);
-      p.sum[pixel] = make_float4(0.f, 0.f, 0.f, float(tracer.rays));
-      continue;
-    }
     SampleSums<float> sums;
     for (uint32_t i = 0; i < p.spp; ++i)
       sums.add(render_sample<kFeatures>(tracer, p.scene, p.camera, settings, px, py, p.first_sample + i, p.seed));
@@ -142,52 +136,14 @@ PN_STRATEGIES(PN_X)
 #undef PN_X
 #undef PN_RAYGEN
 
-// restir's reuse (temporal, spatial) and shading passes (core/restir.h), one thread per
-// pixel of a W x H launch, every scene feature compiled in. The launch index
-// as a pixel: false outside the image.
+// One thread per pixel of a W x H launch: the launch index as a pixel; false
+// outside the image.
 __forceinline__ __device__ bool launch_pixel(int* x, int* y, uint32_t* pixel) {
   const uint3 idx = optixGetLaunchIndex();
   *x = int(idx.x);
   *y = int(idx.y);
   *pixel = idx.y * uint32_t(P().camera.width) + idx.x;
   return *x < P().camera.width && *y < P().camera.height;
-}
-
-extern "C" __global__ void __raygen__restir_spatial() {
-  const LaunchParams& p = P();
-  int x, y;
-  uint32_t pixel;
-  if (!launch_pixel(&x, &y, &pixel)) return;
-  Tracer tracer;
-  RestirReuse r;  // restir_pass kRestirTemporalPass: the same pixel's history (restir_history*)
-  r.pixels = p.restir_pixels;
-  r.in = p.restir_in;
-  r.history_pixels = p.restir_history_pixels;
-  r.history = p.restir_history;
-  r.width = p.camera.width;
-  r.height = p.camera.height;
-  r.sample = p.first_sample;
-  r.seed = p.seed;
-  r.pass = p.restir_pass;
-  p.restir_out[pixel] = restir_reuse<kAllFeatures>(tracer, p.scene, p.integrator.restir, r, pixel);
-  p.sum[pixel].w += float(tracer.rays);
-}
-
-extern "C" __global__ void __raygen__restir_shade() {
-  const LaunchParams& p = P();
-  int x, y;
-  uint32_t pixel;
-  if (!launch_pixel(&x, &y, &pixel)) return;
-  Tracer tracer;
-  const RestirPixel& q = p.restir_pixels[pixel];
-  const Vec3 L = q.L + restir_shade<kAllFeatures>(tracer, p.scene, p.integrator, q, p.restir_in[pixel]);
-  if (p.restir_history) {  // temporal reuse: the next sample's history
-    p.restir_history_pixels[pixel] = q;
-    p.restir_history[pixel] = p.restir_in[pixel];
-  }
-  SampleSums<float> sums;  // this launch's one sample
-  sums.add(L);
-  store_launch_sums(p.sum, p.sum_sq, pixel, sums, p.sum[pixel].w + float(tracer.rays));
 }
 
 // The denoiser's guides (core/aov.h), one thread per pixel of a W x H launch;

@@ -48,19 +48,15 @@ constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {0u, kFeatureShading | kF
 constexpr const char* kFeatureLevelNames[kNumFeatureLevels] = {"basic", "textured", "full"};
 
 // Raygen programs: two per strategy, without and with MIS, in registry order;
-// then restir's spatial-reuse and shading passes (core/restir.h), one program
-// each at the full feature level (they sample nothing by strategy: the MIS
-// weight's pdf is a run-time switch there); then the guides' program.
+// then the trace stage's and the guides' programs.
 constexpr uint32_t kNumRaygens = 2 * uint32_t(kNumStrategies);
 PN_FN uint32_t raygen_index(Strategy s, Mis mis) { return 2u * uint32_t(s) + (mis == Mis::None ? 0u : 1u); }
-constexpr uint32_t kRaygenRestirSpatial = kNumRaygens;
-constexpr uint32_t kRaygenRestirShade = kNumRaygens + 1;
 // The trace stage's trace-only launches (backends/trace_stage.h): rays in, hits or bits out.
-constexpr uint32_t kRaygenTraceClosest = kNumRaygens + 2;
-constexpr uint32_t kRaygenTraceShadow = kNumRaygens + 3;
+constexpr uint32_t kRaygenTraceClosest = kNumRaygens;
+constexpr uint32_t kRaygenTraceShadow = kNumRaygens + 1;
 // The denoiser's guides (core/aov.h): one thread per pixel, at the scene's feature level.
-constexpr uint32_t kRaygenGuides = kNumRaygens + 4;
-constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 5;
+constexpr uint32_t kRaygenGuides = kNumRaygens + 2;
+constexpr uint32_t kNumRaygenPrograms = kNumRaygens + 3;
 
 struct LaunchParams {
   OptixTraversableHandle handle = 0;  // the IAS; 0 for an empty scene (every ray misses)
@@ -78,21 +74,6 @@ struct LaunchParams {
   //   sum_sq.xyz sum of their squares                        sum_sq.w non-finite samples
   float4* sum = nullptr;
   float4* sum_sq = nullptr;
-  // restir's frame-level passes (null: an ordinary launch). The strategy's
-  // raygen program, with restir_pixels set, is the primary pass: it writes
-  // every pixel's shading point and reservoir (restir_in) and its rays into
-  // sum.w; the spatial raygen reads restir_in and writes restir_out (pass
-  // restir_pass), adding its rays; the shading raygen reads restir_in and
-  // writes sum and sum_sq as an ordinary launch does. One sample per pixel.
-  RestirPixel* restir_pixels = nullptr;
-  Reservoir* restir_in = nullptr;
-  Reservoir* restir_out = nullptr;
-  uint32_t restir_pass = 0;  // kRestirTemporalPass: temporal reuse with the history below
-  // Temporal reuse: every pixel's shading point and final reservoir of the
-  // previous sample (written by the shading raygen where set; read by the
-  // temporal pass).
-  RestirPixel* restir_history_pixels = nullptr;
-  Reservoir* restir_history = nullptr;
   // The guides' launch (kRaygenGuides): each pixel's albedo and normal (xyz,
   // w = 0) over `spp` camera rays.
   float4* guide_albedo = nullptr;

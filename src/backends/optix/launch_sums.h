@@ -1,8 +1,8 @@
 // The GPU's launch sums (LaunchParams::sum / sum_sq, the wavefront's): per
 // pixel, float4(sum of the samples, rays traced) and float4(sum of their
 // squares, non-finite samples skipped), read by OptixBackend::launch_accumulate.
-// Device code only: the megakernel's raygens, restir's shading pass and the
-// wavefront's accumulation write them through these two functions.
+// Device code only: the megakernel's raygens and the wavefront's accumulation
+// write them through these two functions.
 #pragma once
 
 #include <cuda_runtime.h>

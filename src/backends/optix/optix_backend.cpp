@@ -3,7 +3,7 @@
 // (device_memory.h: the SceneView the device programs shade with, built by the
 // same build_scene_view as the CPU's), the acceleration structures (accels.h),
 // the programs (pipeline.h), and runs progressive launches with per-launch
-// CUDA-event timing, restir's frame passes, the denoiser's guides, and the
+// CUDA-event timing, restir's frame passes (in the wavefront), the denoiser's guides, and the
 // trace-only launches of the wavefront's optix trace stage.
 #include "backends/optix/optix_backend.h"
 
@@ -161,8 +161,12 @@ class OptixBackendImpl final : public OptixBackend {
     p.sum_sq = launch_sum_sq_.as<float4>();
 
     const uint32_t per_launch = split_granularity(frame, count);
-    // restir with spatial reuse: each sample is a frame of its own passes.
+    // restir with spatial or temporal reuse: each sample is a frame of its own passes, run by the wavefront.
     const bool restir = restir_frame_passes(frame.integrator);
+    if (restir && !wavefront_)  // settings, not a device failure: std::invalid_argument (the viewer shows it)
+      throw std::invalid_argument(
+          "--megakernel: restir's spatial and temporal reuse run in the wavefront path tracer only (drop "
+          "--megakernel, or set render.restir.spatial_passes=0 without render.restir.temporal)");
     if (restir && restir_pixels_.size() != pixels * sizeof(RestirPixel)) {
       restir_pixels_.alloc(pixels * sizeof(RestirPixel), "restir's shading points", size_);
       restir_a_.alloc(pixels * sizeof(Reservoir), "restir's reservoirs", size_);
@@ -225,8 +229,6 @@ class OptixBackendImpl final : public OptixBackend {
         }
         wavefront_->render_restir(frame, base_params_.scene, pipeline_.feature_level(), p.first_sample, b, p.sum,
                                   p.sum_sq, stream_);
-      } else if (restir) {
-        launch_restir(p, sbt, unsigned(W), unsigned(H));
       } else if (wavefront_) {
         wavefront_->render(frame, base_params_.scene, pipeline_.feature_level(), p.first_sample, spp, p.sum, p.sum_sq, stream_);
       } else {
@@ -264,36 +266,6 @@ class OptixBackendImpl final : public OptixBackend {
     }
     if (restir_frame_passes(frame.integrator)) per_launch = 1;  // each sample a frame of restir's passes
     return std::min(per_launch, std::max(count, 1u));
-  }
-
-  // One sample of every pixel by restir's passes (core/restir.h): the
-  // strategy's raygen program as the primary pass, temporal reuse with the
-  // history (kept since reset()), the spatial passes, all ping-ponging between
-  // two reservoir buffers, then shading, which writes the launch sums the
-  // accumulation kernel reads and the next history. Ordered on the stream; each
-  // launch's parameters are staged before cudaMemcpyAsync returns.
-  // scripts/gpu_check.sh compares it with the CPU backend.
-  void launch_restir(LaunchParams p, const OptixShaderBindingTable& primary_sbt, unsigned W, unsigned H) {
-    p.restir_pixels = restir_pixels_.as<RestirPixel>();
-    p.restir_in = restir_a_.as<Reservoir>();
-    p.restir_out = restir_b_.as<Reservoir>();
-    p.spp = 1;
-    PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
-    PN_OPTIX(optixLaunch(pipeline_.get(), stream_, params_.dptr(), sizeof(LaunchParams), &primary_sbt, W, H, 1));
-    OptixShaderBindingTable sbt = pipeline_.sbt(kRaygenRestirSpatial);
-    if (p.integrator.restir.temporal) {
-      p.restir_history_pixels = restir_history_pixels_.as<RestirPixel>();
-      p.restir_history = restir_history_.as<Reservoir>();
-    }
-    for (uint32_t step = 0; step < restir_reuse_steps(p.integrator.restir); ++step) {
-      p.restir_pass = restir_reuse_pass(p.integrator.restir, step);
-      PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
-      PN_OPTIX(optixLaunch(pipeline_.get(), stream_, params_.dptr(), sizeof(LaunchParams), &sbt, W, H, 1));
-      std::swap(p.restir_in, p.restir_out);
-    }
-    sbt = pipeline_.sbt(kRaygenRestirShade);
-    PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
-    PN_OPTIX(optixLaunch(pipeline_.get(), stream_, params_.dptr(), sizeof(LaunchParams), &sbt, W, H, 1));
   }
 
   void trace_closest(const TraceRay* rays, uint32_t count, HitRecord* hits) override {

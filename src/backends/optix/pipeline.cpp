@@ -100,9 +100,7 @@ void Pipeline::build(OptixDeviceContext context, uint32_t features, SphereMode s
       make_group(d, &raygen_[raygen_index(Strategy(i), mis)]);
     }
   const std::string guides = std::string("__raygen__guides_") + kFeatureLevelNames[feature_level_];
-  for (auto [index, entry] : {std::pair<uint32_t, const char*>{kRaygenRestirSpatial, "__raygen__restir_spatial"},
-                              {kRaygenRestirShade, "__raygen__restir_shade"},
-                              {kRaygenTraceClosest, "__raygen__trace_closest"},
+  for (auto [index, entry] : {std::pair<uint32_t, const char*>{kRaygenTraceClosest, "__raygen__trace_closest"},
                               {kRaygenTraceShadow, "__raygen__trace_shadow"},
                               {kRaygenGuides, guides.c_str()}}) {
     d = {};

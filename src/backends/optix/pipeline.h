@@ -1,6 +1,6 @@
 // The OptiX backend's programs: one module compiled from the embedded OptiX-IR
 // (by OptiX's tasks, on all the host's cores), the raygen programs of every
-// strategy x MIS mode at the scene's feature level plus restir's passes, the
+// strategy x MIS mode at the scene's feature level, the
 // trace-only programs and the guides', the miss and hit groups, the pipeline
 // and its shader binding table. Internal to the backend.
 #pragma once
@@ -29,7 +29,7 @@ class Pipeline {
   OptixPipeline get() const { return pipeline_; }
   uint32_t feature_level() const { return feature_level_; }  // index into kFeatureLevels
   // The shader binding table whose raygen record is program `raygen`
-  // (raygen_index(strategy, mis), or kRaygenRestirSpatial, ...).
+  // (raygen_index(strategy, mis), or kRaygenTraceClosest, ...).
   OptixShaderBindingTable sbt(uint32_t raygen) const;
 
  private:
@@ -39,7 +39,7 @@ class Pipeline {
   OptixDeviceContext context_ = nullptr;
   uint32_t feature_level_ = kNumFeatureLevels - 1;
   OptixModule module_ = nullptr, sphere_is_module_ = nullptr;
-  std::vector<OptixProgramGroup> raygen_;  // by raygen_index(strategy, mis), then restir's passes, ...
+  std::vector<OptixProgramGroup> raygen_;  // by raygen_index(strategy, mis), then kRaygenTraceClosest, ...
   OptixProgramGroup miss_[kNumMissPrograms] = {}, hit_[kNumHitGroups] = {};
   OptixPipeline pipeline_ = nullptr;
   OptixShaderBindingTable sbt_ = {};
