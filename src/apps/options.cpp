@@ -55,7 +55,8 @@ void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversa
                            "passes included), the default. The cpu backend ignores it");
   sub->add_flag_callback(
          "--megakernel", [wavefront]() { *wavefront = false; },
-         "GPU: the megakernel (the whole path loop in one OptiX raygen program) instead of the wavefront")
+         "GPU: the megakernel (the whole path loop in one OptiX raygen program) instead of the wavefront; "
+         "restir there without spatial or temporal reuse only")
       ->excludes(wf);
   sub->add_option("--traversal", *traversal,
                   "GPU wavefront's trace stage: optix (trace-only OptiX launches), cuda (penumbra's BVH2 "
