@@ -916,6 +916,9 @@ MANY_SELECTIONS = {
     "restir": ["render.light_selection=restir", "render.restir.pairwise=true"],
     "restir-bvh": ["render.light_selection=restir", "render.restir.pairwise=true", 'render.restir.source="bvh"',
                    "render.restir.candidates=8"],
+    # restir's first stage alone: each path's first vertex resamples 8 BVH candidates (RIS), no reuse passes.
+    "ris-bvh": ["render.light_selection=restir", 'render.restir.source="bvh"', "render.restir.candidates=8",
+                "render.restir.spatial_passes=0"],
     "restir-temporal": ["render.light_selection=restir", "render.restir.pairwise=true", "render.restir.temporal=true"],
     "restir-biased": ["render.light_selection=restir", "render.restir.unbiased=false"],
 }
@@ -924,7 +927,7 @@ MANY_CORRELATED = {"restir-temporal"}
 MANY_STRATEGIES = ["area", "solid-angle", "projected-solid-angle"]
 MANY_SWEEP_SELECTIONS = ["power", "bvh", "restir", "restir-bvh"]
 MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-bvh": "#17becf",
-               "restir-temporal": "#bcbd22", "restir-biased": "#9467bd"}
+               "restir-temporal": "#bcbd22", "restir-biased": "#9467bd", "ris-bvh": "#ff7f0e"}
 
 
 def many_technique(strategy):
@@ -943,7 +946,7 @@ def many_plan(args, cfg, out_dir):
             sets = (f"{count_key}={cfg['lights']}",) + tuple(cfg.get("sets", ())) if count_key else ()
             head += [Run(f"{key}-{sel}", scene, cfg["headline"], sets + scene_sets + tuple(extra),
                          tuple(MANY_STRATEGIES), ("power",), out_dir, None if count_key else scene)
-                     for sel, extra in MANY_SELECTIONS.items()]
+                     for sel, extra in MANY_SELECTIONS.items() if not args.selection or sel in args.selection]
     if args.only != "headline" and (not args.scene or "many-spheres" in args.scene):
         for sel in MANY_SWEEP_SELECTIONS:
             sweeps[sel] = [Run(f"count-{n}-{sel}", "many-spheres", cfg["sweep"],
@@ -1450,6 +1453,9 @@ def main():
     ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES) | set(MANY_SCENES)),
                     help="run only this headline scene (repeatable): split a long study over several GPU calls, "
                          "then --report-only over the merged runs")
+    ap.add_argument("--selection", action="append", choices=sorted(MANY_SELECTIONS),
+                    help="many-lights: run only this selection method (repeatable); the report needs them all, so "
+                         "merge the runs and use --report-only")
     ap.add_argument("--check", action="store_true", help="assert slopes and the near-light win (CI smoke test)")
     ap.add_argument("--keep-runs", action="store_true", help="keep the crops (.npy) the figures are drawn from")
     ap.add_argument("--report-only", action="store_true",
