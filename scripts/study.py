@@ -1053,7 +1053,7 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         w("- The lights-count sweep and `penumbra bench` per count (below); time: GPU time (CUDA events) on the GPU, "
           "wall time on the CPU; efficiency = 1 / (MSE x time) at the largest spp relative to `power`, without the "
           "pixels that see a lamp directly.\n")
-    if head:
+    else:
         counts = [f"{cfg['lights']} lights in many-spheres"] if "many-spheres" in head else []
         if "sponza-lanterns" in head:
             n = head["sponza-lanterns"]["power"].get("lights", {}).get("sphere")  # converge's count (older runs: none)
