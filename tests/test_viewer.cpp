@@ -201,6 +201,13 @@ TEST(CameraPath, BadInputIsOneLineNamingTheEntry) {
   // restir's panel boxes: booleans.
   EXPECT_EQ(error("[{\"frame\": 1, \"restir_pairwise\": true}]"), "no error");
   EXPECT_NE(error("[{\"frame\": 1, \"restir_pairwise\": 1}]").find("p.json: [0].restir_pairwise"), std::string::npos);
+  // ... and its BVH candidates, candidates and spatial passes (ris-bvh: BVH candidates, no pass).
+  EXPECT_EQ(error("[{\"frame\": 1, \"restir_bvh_candidates\": true, \"restir_candidates\": 8, \"restir_spatial\": 0}]"),
+            "no error");
+  EXPECT_NE(error("[{\"frame\": 1, \"restir_candidates\": 0}]").find("p.json: [0].restir_candidates"), std::string::npos);
+  EXPECT_NE(error("[{\"frame\": 1, \"restir_spatial\": 17}]").find("p.json: [0].restir_spatial"), std::string::npos);
+  EXPECT_NE(error("[{\"frame\": 1, \"restir_bvh_candidates\": \"yes\"}]").find("p.json: [0].restir_bvh_candidates"),
+            std::string::npos);
   EXPECT_NE(error("[{\"frame\": 1, \"denoise\": 2}]").find("p.json: [0].denoise"), std::string::npos);
 }
 

@@ -71,6 +71,8 @@ struct ImageSettings {
   LightSelection selection = LightSelection::Power;
   bool restir_temporal = false;  // restir: temporal reuse between frames (history kept until the image restarts)
   bool restir_pairwise = false;  // restir (unbiased): pairwise MIS in the reuse
+  bool restir_bvh_source = false;  // restir: candidates drawn by the light BVH (else by power)
+  int restir_candidates = 32, restir_spatial = 2;  // restir: candidates per pixel, spatial passes
   int max_depth = 0;
   int width = 0, height = 0;
   bool split = false;  // the divider is not here: it only chooses which image each column shows
@@ -80,7 +82,9 @@ struct ImageSettings {
 
   bool operator==(const ImageSettings& o) const {
     return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && selection == o.selection &&
-           restir_temporal == o.restir_temporal && restir_pairwise == o.restir_pairwise && max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
+           restir_temporal == o.restir_temporal && restir_pairwise == o.restir_pairwise &&
+           restir_bvh_source == o.restir_bvh_source && restir_candidates == o.restir_candidates &&
+           restir_spatial == o.restir_spatial && max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
            right == o.right && equal_time == o.equal_time && scene_overrides == o.scene_overrides;
   }
 };
@@ -197,6 +201,8 @@ class Viewer {
   LightSelection selection_ = LightSelection::Power;
   bool restir_temporal_ = false;
   bool restir_pairwise_ = false;
+  bool restir_bvh_source_ = false;
+  int restir_candidates_ = 32, restir_spatial_ = 2;
   int max_depth_ = 8;
   int spp_per_frame_ = 1;
   float exposure_ = 0.f;
@@ -256,6 +262,9 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   selection_ = scene_->render.light_selection;
   restir_temporal_ = scene_->render.restir.temporal != 0;
   restir_pairwise_ = scene_->render.restir.pairwise != 0;
+  restir_bvh_source_ = scene_->render.restir.source == LightSelection::Bvh;
+  restir_candidates_ = int(scene_->render.restir.candidates);
+  restir_spatial_ = int(scene_->render.restir.spatial_passes);
   max_depth_ = scene_->render.max_depth;
   spp_per_frame_ = opt_.spp_per_frame;
   exposure_ = opt_.exposure;
@@ -395,6 +404,11 @@ ImageSettings Viewer::wanted() const {
   s.selection = selection_;
   s.restir_temporal = selection_ == LightSelection::Restir && restir_temporal_;
   s.restir_pairwise = selection_ == LightSelection::Restir && restir_pairwise_ && scene_->render.restir.unbiased;
+  if (selection_ == LightSelection::Restir) {  // else the defaults: changing them restarts nothing
+    s.restir_bvh_source = restir_bvh_source_;
+    s.restir_candidates = restir_candidates_;
+    s.restir_spatial = restir_spatial_;
+  }
   s.max_depth = max_depth_;
   int fw = 0, fh = 0;
   glfwGetFramebufferSize(window_, &fw, &fh);
@@ -453,6 +467,11 @@ void Viewer::restart(const ImageSettings& s) {
   base.integrator.light_selection = s.selection;
   base.integrator.restir.temporal = s.restir_temporal ? 1u : 0u;
   base.integrator.restir.pairwise = s.restir_pairwise ? 1u : 0u;
+  if (s.selection == LightSelection::Restir) {
+    base.integrator.restir.source = s.restir_bvh_source ? LightSelection::Bvh : LightSelection::Power;
+    base.integrator.restir.candidates = uint32_t(s.restir_candidates);
+    base.integrator.restir.spatial_passes = uint32_t(s.restir_spatial);
+  }
   try {
     display_->resize(s.width, s.height);
   } catch (const std::exception& e) {  // registering the new size's pixel buffer with CUDA failed
@@ -614,6 +633,9 @@ void Viewer::save_camera_file(const std::string& path) {
   overrides.push_back(std::string("render.restir.temporal=") + (restir_temporal_ ? "true" : "false"));
   if (scene_->render.restir.unbiased)  // pairwise MIS is for the unbiased combination only
     overrides.push_back(std::string("render.restir.pairwise=") + (restir_pairwise_ ? "true" : "false"));
+  overrides.push_back(std::string("render.restir.source=\"") + (restir_bvh_source_ ? "bvh" : "power") + "\"");
+  overrides.push_back("render.restir.candidates=" + std::to_string(restir_candidates_));
+  overrides.push_back("render.restir.spatial_passes=" + std::to_string(restir_spatial_));
   overrides.push_back("render.max_depth=" + std::to_string(max_depth_));
   std::string source;
   nlohmann::json doc = load_scene_json(opt_.scene, overrides, &source);
@@ -757,9 +779,18 @@ void Viewer::draw_panel() {
   if (selection_ == LightSelection::Restir) {
     ImGui::Checkbox("temporal reuse", &restir_temporal_);
     if (scene_->render.restir.unbiased) ImGui::Checkbox("pairwise MIS", &restir_pairwise_);
+    // ris-bvh of the study: BVH candidates, no spatial pass, no temporal reuse.
+    ImGui::Checkbox("BVH candidates", &restir_bvh_source_);
+    ImGui::SliderInt("candidates", &restir_candidates_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
+    ImGui::SliderInt("spatial passes", &restir_spatial_, 0, 4);
+    restir_candidates_ = std::clamp(restir_candidates_, 1, int(kMaxRestirCandidates));  // typed values too
+    restir_spatial_ = std::clamp(restir_spatial_, 0, int(kMaxRestirPasses));
     RestirSettings r = scene_->render.restir;
     r.temporal = restir_temporal_ ? 1u : 0u;
     r.pairwise = r.unbiased && restir_pairwise_ ? 1u : 0u;
+    r.source = restir_bvh_source_ ? LightSelection::Bvh : LightSelection::Power;
+    r.candidates = uint32_t(restir_candidates_);
+    r.spatial_passes = uint32_t(restir_spatial_);
     ImGui::TextDisabled("%s", light_selection_label(selection_, r).c_str());
   }
   ImGui::TextDisabled("%zu lights", scene_->lights.size());
@@ -906,6 +937,9 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "light_selection") selection_ = parse_light_selection(v.get<std::string>(), a.where);
   else if (k == "restir_temporal") restir_temporal_ = v.get<bool>();
   else if (k == "restir_pairwise") restir_pairwise_ = v.get<bool>();
+  else if (k == "restir_bvh_candidates") restir_bvh_source_ = v.get<bool>();
+  else if (k == "restir_candidates") restir_candidates_ = v.get<int>();
+  else if (k == "restir_spatial") restir_spatial_ = v.get<int>();
   else if (k == "spp_per_frame") spp_per_frame_ = v.get<int>();
   else if (k == "max_depth") max_depth_ = v.get<int>();
   else if (k == "exposure") exposure_ = v.get<float>();
