@@ -484,22 +484,16 @@ class CpuBackend final : public Backend {
     w.restir = RestirFrame();
   }
 
-  // A frame pass of restir through the trace stage (wavefront.h): chunks of the frame's pixels, each recorded
-  // (record(i, chunk)), its shadow queue traced, then replayed (replay(i, chunk)). max_rays 0: no queries, the
-  // replay alone.
+  // A frame pass of restir through the trace stage (wavefront.h's restir_frame_pass): record(i, chunk) and
+  // replay(i, chunk) for each pixel i of each chunk, on all cores.
   template <class Record, class Replay>
-  void restir_frame_pass(HostWavefront& hw, uint32_t pixels, uint32_t max_rays, Record&& record, Replay&& replay) {
-    const uint32_t chunk = restir_chunk_pixels(hw.w, max_rays);
+  void run_restir_pass(HostWavefront& hw, uint32_t pixels, uint32_t max_rays, Record&& record, Replay&& replay) {
     Tracer tracer{this};
-    for (uint32_t first = 0; first < pixels; first += chunk) {
-      const RestirChunk c{first, std::min(chunk, pixels - first), max_rays};
-      if (max_rays > 0) {
-        begin_shadow_batch(hw.w);
-        parallel_for(c.count, [&](uint32_t i) { record(i, c); });
-        trace_shadow_queue(tracer, hw);
-      }
-      parallel_for(c.count, [&](uint32_t i) { replay(i, c); });
-    }
+    pn::restir_frame_pass(
+        hw.w, pixels, max_rays, [&](const RestirChunk&) { begin_shadow_batch(hw.w); },
+        [&](const RestirChunk& c) { parallel_for(c.count, [&](uint32_t i) { record(i, c); }); },
+        [&](const RestirChunk&) { trace_shadow_queue(tracer, hw); },
+        [&](const RestirChunk& c) { parallel_for(c.count, [&](uint32_t i) { replay(i, c); }); });
   }
 
   // Runs fn(phase, x0, y0, x1, y1) over the W x H frame's 16x16 tiles for
@@ -675,14 +669,14 @@ class CpuBackend final : public Backend {
         for (uint32_t step = 0; step < steps; ++step) {
           const RestirReuse r = reuse(sample, restir_reuse_pass(s.restir, step), reservoirs[cur].data());
           Reservoir* out = reservoirs[cur ^ 1].data();
-          restir_frame_pass(
+          run_restir_pass(
               hw, n, restir_reuse_max_rays(s.restir, r.pass),
               [&](uint32_t k, const RestirChunk& c) { restir_reuse_record(k, hw.w, c, view_, s.restir, r); },
               [&](uint32_t k, const RestirChunk& c) { restir_reuse_replay(k, hw.w, c, view_, s.restir, r, out); });
           cur ^= 1;
         }
         const Reservoir* final_reservoirs = reservoirs[cur].data();
-        restir_frame_pass(
+        run_restir_pass(
             hw, n, restir_shade_max_rays(s.restir),
             [&](uint32_t k, const RestirChunk& c) {
               restir_shade_record(k, hw.w, c, view_, s, gbuffer.data(), final_reservoirs);

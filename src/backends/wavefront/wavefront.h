@@ -340,6 +340,23 @@ inline uint32_t restir_chunk_pixels(const WavefrontView& w, uint32_t max_rays) {
 // Before a chunk is recorded: the shadow queue starts empty (one thread).
 PN_FN void begin_shadow_batch(const WavefrontView& w) { *w.shadow.count = 0; }
 
+// One frame pass over `pixels` pixels in chunks (host code, each backend's steps as callbacks taking the chunk):
+// where the pass makes queries (max_rays > 0), begin() an empty shadow queue, record(), trace() it; then replay().
+template <class Begin, class Record, class Trace, class Replay>
+void restir_frame_pass(const WavefrontView& w, uint32_t pixels, uint32_t max_rays, Begin&& begin, Record&& record,
+                       Trace&& trace, Replay&& replay) {
+  const uint32_t chunk = restir_chunk_pixels(w, max_rays);
+  for (uint32_t first = 0; first < pixels; first += chunk) {
+    const RestirChunk c{first, chunk < pixels - first ? chunk : pixels - first, max_rays};
+    if (max_rays > 0) {
+      begin(c);
+      record(c);
+      trace(c);
+    }
+    replay(c);
+  }
+}
+
 // Thread i of a reuse pass's chunk, recording.
 template <uint32_t kFeatures = kAllFeatures>
 PN_HD void restir_reuse_record(uint32_t i, const WavefrontView& w, const RestirChunk& c, const SceneView& scene,

@@ -119,7 +119,7 @@ __global__ void __launch_bounds__(kBlock) accumulate_kernel() {
 }
 
 // restir's frame passes after the primary pass (wavefront.h): chunks recorded, traced by the trace stage,
-// replayed. Every scene feature compiled in, as the megakernel's restir programs.
+// replayed. Every scene feature compiled in.
 __global__ void begin_shadow_batch_kernel() { begin_shadow_batch(WP().view); }
 
 __global__ void __launch_bounds__(kBlock) reuse_record_kernel(RestirChunk c, RestirReuse r) {
@@ -143,7 +143,7 @@ __global__ void __launch_bounds__(kBlock) shade_record_kernel(RestirChunk c, con
     restir_shade_record(i, p.view, c, p.scene, p.integrator, pixels, final_reservoirs);
 }
 
-// The frame's sample into the launch sums (as the megakernel's restir_shade program writes them); with temporal
+// The frame's sample into the launch sums (as the megakernel's raygens write theirs); with temporal
 // reuse, the next sample's history kept.
 __global__ void __launch_bounds__(kBlock) shade_replay_kernel(RestirChunk c, const RestirPixel* pixels,
                                                              const Reservoir* final_reservoirs,
@@ -350,17 +350,13 @@ void WavefrontGpu::render_restir(const FrameSpec& frame, const SceneView& device
   const unsigned grid = unsigned(num_sms_) * 8u;
   // Chunks of the frame: recorded and traced where the pass makes queries, then replayed (wavefront.h).
   auto frame_pass = [&](uint32_t max_rays, auto&& record, auto&& replay) {
-    const uint32_t chunk = restir_chunk_pixels(view_, max_rays);
-    for (uint32_t first = 0; first < pixels; first += chunk) {
-      const RestirChunk c{first, chunk < pixels - first ? chunk : pixels - first, max_rays};
-      if (max_rays > 0) {
-        begin_shadow_batch_kernel<<<1, 1, 0, stream>>>();
-        record(c);
-        trace_->shadow(stream);
-      }
-      replay(c);
-      check(cudaGetLastError(), "restir's frame passes");
-    }
+    restir_frame_pass(
+        view_, pixels, max_rays, [&](const RestirChunk&) { begin_shadow_batch_kernel<<<1, 1, 0, stream>>>(); },
+        record, [&](const RestirChunk&) { trace_->shadow(stream); },
+        [&](const RestirChunk& c) {
+          replay(c);
+          check(cudaGetLastError(), "restir's frame passes");
+        });
   };
   RestirReuse r;
   r.pixels = b.pixels;
