@@ -157,6 +157,22 @@ TEST(ImageLoad, BrokenJpegsAreRefusedInOneLine) {
   }
 }
 
+// An EXR whose chunkCount (0x3f800000) no file of its size can hold: refused before tinyexr allocates its offset
+// table of 8.5 GB (fuzz_image: libFuzzer's out-of-memory; outside the fuzzer, std::bad_alloc and an abort).
+TEST(ImageLoad, ExrChunkCountBeyondTheFileIsRefused) {
+  const std::string path =
+      std::string(PENUMBRA_TEST_DATA) + "/../fuzz/regressions/image/exr-chunkcount-allocates-8gb.exr";
+  std::ifstream in(path, std::ios::binary);
+  ASSERT_TRUE(in) << path;
+  const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  DecodedImage img;  // as float: an EXR as an 8-bit texture is refused before its header is read
+  std::string error;
+  EXPECT_FALSE(decode_image_memory(bytes.data(), bytes.size(), true, &img, &error));
+  EXPECT_NE(error.find("a chunkCount of 1065353216 in a file of " + std::to_string(bytes.size()) + " bytes"),
+            std::string::npos)
+      << error;
+}
+
 // Formats stb_image knows but textures are not: refused before stb sees them.
 TEST(ImageLoad, FormatsOtherThanTexturesAreRefused) {
   const std::string gif = "GIF89a\x01\x00\x01\x00\x80\x00\x00\xff\xff\xff\x00\x00\x00!\xf9\x04\x01\x00\x00"

@@ -284,6 +284,16 @@ bool exr_header_parsable(const uint8_t* data, size_t size, std::string* why) {
         return false;
       }
       tiled = true;
+    } else if (name == "chunkCount" && len >= 4) {
+      // A scanline file's offset table has chunkCount entries of 8 bytes, which tinyexr allocates before it reads
+      // them: a count the file cannot hold would only allocate (0x3f800000 asked for 8.5 GB; found by fuzz_image).
+      int32_t chunks = 0;
+      std::memcpy(&chunks, value, 4);
+      if (chunks > 0 && uint64_t(chunks) * 8u > size) {
+        *why = "a chunkCount of " + std::to_string(chunks) + " in a file of " + std::to_string(size) +
+               " bytes (8 bytes of offset table a chunk)";
+        return false;
+      }
     } else if (name == "type" && len > 0 && value[0] != 0) {  // as tinyexr: an empty value leaves the type
       type.assign(reinterpret_cast<const char*>(value), strnlen(reinterpret_cast<const char*>(value), len));
     }

@@ -41,8 +41,10 @@ bool image_dimensions(const uint8_t* data, size_t size, int* w, int* h);
 // a "type" attribute that is not one of its four names or that contradicts the
 // file's tiling, a "tiles" attribute that is not 9 bytes, or a tile level mode
 // of 3 (found by fuzz_image), even in a header whose later attributes are
-// broken (tinyexr converts what it read before failing). Walks the attributes as
-// tinyexr does; false with a one-line reason in *why for those.
+// broken (tinyexr converts what it read before failing); and it allocates an
+// offset table of "chunkCount" 8-byte entries before reading them, so a count the
+// file is too small to hold is refused too. Walks the attributes as tinyexr does;
+// false with a one-line reason in *why for those.
 bool exr_header_parsable(const uint8_t* data, size_t size, std::string* why);
 
 // Whether the extension names a float (HDR) format: .hdr or .exr.
