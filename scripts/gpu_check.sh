@@ -151,7 +151,7 @@ if listed many-spheres; then
   record "many-spheres restir --megakernel: a one-line error, no image" $?
 fi
 # method[:extra args, comma-separated]: the name is the spec with ':' and ',' and '=' made '_'.
-selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-biased restir:--restir-temporal restir:--traversal=optix restir:--megakernel,--restir-spatial=0"}
+selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-pairwise,--restir-unshadowed restir:--restir-unshadowed,--restir-source=bvh,--restir-candidates=8 restir:--restir-biased restir:--restir-temporal restir:--traversal=optix restir:--megakernel,--restir-spatial=0"}
 selection_scenes=${GPU_CHECK_SELECTION_SCENES:-"many-spheres sponza-lanterns glossy"}
 for scene in $selection_scenes; do
   if ! listed "$scene"; then echo "skip: $scene is not a built-in scene of this build"; continue; fi
@@ -227,15 +227,18 @@ if command -v compute-sanitizer >/dev/null 2>&1; then
     record "compute-sanitizer memcheck $scene: 0 errors" $st
   done
   if listed many-spheres; then
-    for method in bvh restir; do
-      log=$out/memcheck_many-spheres_$method.log
+    # method[:extra args, comma-separated], as GPU_CHECK_SELECTIONS.
+    for spec in bvh restir restir:--restir-pairwise,--restir-unshadowed; do
+      method=${spec%%:*}; extra=(); [[ $spec == *:* ]] && IFS=',' read -r -a extra <<<"${spec#*:}"
+      name=$(echo "$spec" | tr ':,=' '___')
+      log=$out/memcheck_many-spheres_$name.log
       compute-sanitizer --tool memcheck --leak-check full --error-exitcode 9 \
-        "$penumbra" render many-spheres --backend optix --light-selection "$method" --width 64 --height 36 --spp 4 \
-        -o "$out/memcheck_many-spheres_$method.exr" >"$log" 2>&1
+        "$penumbra" render many-spheres --backend optix --light-selection "$method" "${extra[@]}" --width 64 \
+        --height 36 --spp 4 -o "$out/memcheck_many-spheres_$name.exr" >"$log" 2>&1
       st=$?
       grep -E "ERROR SUMMARY|LEAK SUMMARY" "$log" || tail -n 5 "$log"
       grep -q "ERROR SUMMARY: 0 errors" "$log" || st=1
-      record "compute-sanitizer memcheck many-spheres --light-selection $method: 0 errors" $st
+      record "compute-sanitizer memcheck many-spheres --light-selection $method ${extra[*]}: 0 errors" $st
     done
   fi
 else

@@ -920,6 +920,13 @@ MANY_SELECTIONS = {
     # restir's first stage alone: each path's first vertex resamples 8 BVH candidates (RIS), no reuse passes.
     "ris-bvh": ["render.light_selection=restir", 'render.restir.source="bvh"', "render.restir.candidates=8",
                 "render.restir.spatial_passes=0"],
+    # restir and restir-bvh without visibility reuse: unshadowed targets in the reuse (no shadow rays there), one
+    # shadow ray when shading; unbiased all the same (core/restir.h).
+    "restir-unshadowed": ["render.light_selection=restir", "render.restir.pairwise=true",
+                          "render.restir.visibility_reuse=false"],
+    "restir-bvh-unshadowed": ["render.light_selection=restir", "render.restir.pairwise=true",
+                              'render.restir.source="bvh"', "render.restir.candidates=8",
+                              "render.restir.visibility_reuse=false"],
     "restir-temporal": ["render.light_selection=restir", "render.restir.pairwise=true", "render.restir.temporal=true"],
     "restir-biased": ["render.light_selection=restir", "render.restir.unbiased=false"],
 }
@@ -928,7 +935,8 @@ MANY_CORRELATED = {"restir-temporal"}
 MANY_STRATEGIES = ["area", "solid-angle", "projected-solid-angle"]
 MANY_SWEEP_SELECTIONS = ["power", "bvh", "restir", "restir-bvh"]
 MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-bvh": "#17becf",
-               "restir-temporal": "#bcbd22", "restir-biased": "#9467bd", "ris-bvh": "#ff7f0e"}
+               "restir-temporal": "#bcbd22", "restir-biased": "#9467bd", "ris-bvh": "#ff7f0e",
+               "restir-unshadowed": "#98df8a", "restir-bvh-unshadowed": "#9edae5"}
 
 
 def many_technique(strategy):

@@ -494,7 +494,7 @@ std::vector<test::MeanEstimator> restir_frames(const SphereField& field, const T
         const float us = rng.uniform();
         const Vec2 u = rng.uniform2();
         const DirectSample d = choose_direct_sample(scene, s, q.bsdf, q.p, q.wo, true, us, u, &rng);
-        in[size_t(y * N + x)] = make_reservoir(tracer, scene, q.bsdf, q.p, q.wo, d);
+        in[size_t(y * N + x)] = make_reservoir(tracer, scene, q.bsdf, q.p, q.wo, d, rs.visibility_reuse != 0);
       }
     if (rs.temporal) {
       for (size_t i = 0; i < pixels.size(); ++i)
@@ -569,6 +569,19 @@ TEST(Restir, SpatialReuseIsUnbiasedWhereNeighboursSeeOtherLights) {
   EXPECT_LT(pairwise, 1.5);
   EXPECT_EQ(beyond_pairwise, 0);
   std::printf("[          ] checkerboard visibility, pairwise MIS: mean z^2 %.2f\n", pairwise);
+  // Without visibility reuse (unshadowed targets, a shadow ray when shading): unbiased with either MIS, though every
+  // pixel reuses its neighbours' samples of lights it cannot see.
+  rs.visibility_reuse = 0;
+  for (uint32_t pw : {0u, 1u}) {
+    rs.pairwise = pw;
+    int beyond_unshadowed = 0;
+    const double unshadowed = z2(restir_frames(field, Checkerboard{&field}, rs, 3000), &beyond_unshadowed);
+    EXPECT_LT(unshadowed, 1.5) << (pw ? "pairwise" : "generalized balance");
+    EXPECT_EQ(beyond_unshadowed, 0) << (pw ? "pairwise" : "generalized balance");
+    std::printf("[          ] checkerboard visibility, unshadowed targets%s: mean z^2 %.2f\n", pw ? ", pairwise" : "",
+                unshadowed);
+  }
+  rs.visibility_reuse = 1;
   rs.pairwise = 0;
   rs.unbiased = 0;
   int beyond_biased = 0;
@@ -711,6 +724,7 @@ TEST(ManyLights, BadScatterAndRestirSettingsNameTheirField) {
   expect_scene_error(with("/render", {{"restir", {{"source", "restir"}}}}), "render.restir.source");
   expect_scene_error(with("/render", {{"restir", {{"unbiased", 1}}}}), "render.restir.unbiased");
   expect_scene_error(with("/render", {{"restir", {{"pairwise", "yes"}}}}), "render.restir.pairwise");
+  expect_scene_error(with("/render", {{"restir", {{"visibility_reuse", 0}}}}), "render.restir.visibility_reuse");
   expect_scene_error(with("/render", {{"restir", {{"pairwise", true}, {"unbiased", false}}}}),
                      "render.restir.pairwise");
   expect_scene_error(with("/render", {{"restir", {{"neighbors", 99}}}}), "render.restir.neighbors");

@@ -157,6 +157,8 @@ const Case kWavefrontCases[] = {
     // queue, records and reservoirs written by the first vertices), then the reuse passes; every combination.
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.pairwise=true"}},
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.pairwise=true",
+                      "render.restir.visibility_reuse=false"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.unbiased=false",
                       "render.strategy=area"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.temporal=true",

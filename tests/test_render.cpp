@@ -179,6 +179,8 @@ TEST(ManyLights, SelectionMethodsAgreeWithPower) {
       {"restir", {"render.restir.spatial_passes=0"}},                         // candidates only
       {"restir", {"render.restir.source=bvh", "render.restir.candidates=8"}},
       {"restir", {"render.restir.pairwise=true"}},                           // pairwise MIS in the reuse
+      {"restir", {"render.restir.pairwise=true", "render.restir.visibility_reuse=false"}},  // unshadowed targets
+      {"restir", {"render.restir.visibility_reuse=false"}},
       {"restir", {"render.mis=none", "render.strategy=area"}},
   };
   uint32_t seed = 10;

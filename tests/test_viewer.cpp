@@ -201,6 +201,9 @@ TEST(CameraPath, BadInputIsOneLineNamingTheEntry) {
   // restir's panel boxes: booleans.
   EXPECT_EQ(error("[{\"frame\": 1, \"restir_pairwise\": true}]"), "no error");
   EXPECT_NE(error("[{\"frame\": 1, \"restir_pairwise\": 1}]").find("p.json: [0].restir_pairwise"), std::string::npos);
+  EXPECT_EQ(error("[{\"frame\": 1, \"restir_visibility_reuse\": false}]"), "no error");
+  EXPECT_NE(error("[{\"frame\": 1, \"restir_visibility_reuse\": 0}]").find("p.json: [0].restir_visibility_reuse"),
+            std::string::npos);
   // ... and its BVH candidates, candidates and spatial passes (ris-bvh: BVH candidates, no pass).
   EXPECT_EQ(error("[{\"frame\": 1, \"restir_bvh_candidates\": true, \"restir_candidates\": 8, \"restir_spatial\": 0}]"),
             "no error");

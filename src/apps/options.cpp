@@ -40,6 +40,9 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
               "neighbours see other lights");
   g->add_flag("--restir-pairwise", o->restir_pairwise,
               "Pairwise MIS in the unbiased reuse: 2k shadow rays per pixel and pass instead of k^2 + k");
+  g->add_flag("--restir-unshadowed", o->restir_unshadowed,
+              "No visibility reuse: unshadowed targets in the reuse (no shadow rays there), one shadow ray when "
+              "shading; unbiased all the same");
   g->add_flag("--restir-temporal", o->restir_temporal,
               "Temporal reuse: each sample's reservoirs also combine the same pixel's final ones of the previous "
               "sample (the camera is static: a progressive render, the viewer until the view changes)");
@@ -99,6 +102,7 @@ void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::st
   if (!o.restir_source.empty()) overrides->push_back("render.restir.source=\"" + o.restir_source + "\"");
   if (o.restir_biased) overrides->push_back("render.restir.unbiased=false");
   if (o.restir_pairwise) overrides->push_back("render.restir.pairwise=true");
+  if (o.restir_unshadowed) overrides->push_back("render.restir.visibility_reuse=false");
   if (o.restir_temporal) overrides->push_back("render.restir.temporal=true");
   if (o.restir_temporal_cap != -std::numeric_limits<double>::infinity())
     overrides->push_back("render.restir.temporal_cap=" + std::to_string(o.restir_temporal_cap));

@@ -20,6 +20,7 @@ struct IntegratorOptions {
   std::string restir_source;
   bool restir_biased = false;
   bool restir_pairwise = false;
+  bool restir_unshadowed = false;
   bool restir_temporal = false;
   double restir_temporal_cap = -std::numeric_limits<double>::infinity();  // unset
 };

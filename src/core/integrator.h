@@ -210,12 +210,13 @@ PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, Strateg
 
 // The reservoir of restir's first vertex, for the frame-level passes
 // (core/restir.h): the kept candidate with its contribution weight in the area
-// measure (W / G), which is 0 until the kept candidate is known to be visible
-// (visibility reuse: the reservoir's target becomes p_hat V). *q receives the
-// shadow query that sets W (ShadowKind::Reservoir), or none.
+// measure (W / G). With visibility reuse, W is 0 until the kept candidate is
+// known to be visible (the reservoir's target becomes p_hat V) and *q receives
+// the shadow query that sets it (ShadowKind::Reservoir); without, W is set now
+// (the target stays unshadowed) and *q is none.
 template <uint32_t kFeatures = kAllFeatures>
 PN_FN Reservoir reservoir_before_visibility(const SceneView& scene, const Bsdf& bsdf, Vec3 p, Vec3 wo,
-                                            const DirectSample& d, ShadowQuery* q) {
+                                            const DirectSample& d, ShadowQuery* q, bool visibility_reuse = true) {
   Reservoir r;
   *q = ShadowQuery();
   r.M = float(d.M);
@@ -225,6 +226,10 @@ PN_FN Reservoir reservoir_before_visibility(const SceneView& scene, const Bsdf& 
   const TargetEval t = restir_target<kFeatures>(scene, bsdf, p, wo, r.s);
   r.p_hat = t.p_hat;
   if (!(t.p_hat > 0.f)) return r;
+  if (!visibility_reuse) {
+    r.W = d.w_sum / (r.M * t.p_hat);
+    return r;
+  }
   const ShadowRay sr = light_shadow_ray(p, bsdf.ng, t.wi, r.s.y, r.s.infinite != 0);
   q->ray = sr.ray;
   q->tmax = sr.tmax;
@@ -236,9 +241,9 @@ PN_FN Reservoir reservoir_before_visibility(const SceneView& scene, const Bsdf& 
 // The same with its shadow ray traced now.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Reservoir make_reservoir(const Tracer& tracer, const SceneView& scene, const Bsdf& bsdf, Vec3 p, Vec3 wo,
-                               const DirectSample& d) {
+                               const DirectSample& d, bool visibility_reuse = true) {
   ShadowQuery q;
-  Reservoir r = reservoir_before_visibility<kFeatures>(scene, bsdf, p, wo, d, &q);
+  Reservoir r = reservoir_before_visibility<kFeatures>(scene, bsdf, p, wo, d, &q, visibility_reuse);
   if (q.kind == ShadowKind::Reservoir && !tracer.occluded(q.ray, q.tmax)) r.W = q.reservoir_W;
   return r;
 }
@@ -401,7 +406,8 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
       px.wo = wo;
       px.t = hit.t;
       px.valid = 1;
-      *primary->reservoir = reservoir_before_visibility<kFeatures>(scene, bsdf, hit.p, wo, d, &q);
+      *primary->reservoir =
+          reservoir_before_visibility<kFeatures>(scene, bsdf, hit.p, wo, d, &q, s.restir.visibility_reuse != 0);
     } else {
       q = direct_shadow_query<kFeatures>(s, bsdf, hit.p, wo, d);
       q.contribution = st.beta * q.contribution;

@@ -75,6 +75,10 @@ constexpr float kMinInfiniteProbability = 0.1f;
 // `temporal_cap` times the new one's). Unbiased by default;
 // `unbiased = 0` is the paper's biased combination (cheaper, darker where
 // neighbours see different lights), labelled as such wherever it is reported.
+// `visibility_reuse` (default) traces the primary reservoir's sample and makes
+// every target of the reuse the shadowed one (shadow rays in every pass, none
+// when shading); without it the targets are unshadowed (no shadow ray until
+// the final shading, unbiased all the same: core/restir.h).
 struct RestirSettings {
   uint32_t candidates = 32;
   uint32_t spatial_passes = 2;
@@ -85,6 +89,7 @@ struct RestirSettings {
   uint32_t temporal = 0;      // 1: temporal reuse between successive samples of a static camera
   float temporal_cap = 20.f;  // the history's M at most this times the new reservoir's
   uint32_t pairwise = 0;      // 1 (unbiased only): pairwise MIS in the reuse, 2k shadow rays a pass, not k^2 + k
+  uint32_t visibility_reuse = 1;  // 0: unshadowed targets in the reuse, one shadow ray when shading
 };
 constexpr uint32_t kMaxRestirCandidates = 4096;
 constexpr uint32_t kMaxRestirPasses = 16;

@@ -31,10 +31,10 @@
 //   unbiased (default): generalized RIS (Lin et al. 2022) with the generalized
 //     balance heuristic as MIS weights, w_i = m_i(y_i) p_hat_q(y_i) W_i,
 //     m_i(y) = M_i p_hat_i(y) / sum_j M_j p_hat_j(y), W = (sum of w_i) /
-//     p_hat_q(y), where every target is the SHADOWED contribution p_hat V at
-//     its own pixel: the primary reservoir is zeroed when its sample is
-//     occluded (visibility reuse), and the final sample is known to be visible
-//     (no shadow ray when shading). Exactly unbiased for any number of passes,
+//     p_hat_q(y), where every target is (by default, visibility_reuse) the
+//     SHADOWED contribution p_hat V at its own pixel: the primary reservoir is
+//     zeroed when its sample is occluded (visibility reuse), and the final
+//     sample is known to be visible (no shadow ray when shading). Exactly unbiased for any number of passes,
 //     with bounded weights; n^2 - n shadow rays per pixel and pass (n = 1 + the
 //     neighbours found). With `pairwise`: pairwise MIS (restir_combine_pairwise),
 //     also exactly unbiased and bounded, 2 (n - 1) shadow rays per pixel and
@@ -43,6 +43,13 @@
 //     its own pixel and large at q (a point near a sphere light's silhouette,
 //     drawn by the cone) gave fireflies that did not average out (measured on
 //     many-spheres at 1080p: RMSE rising from 16 to 64 spp).
+//   Without visibility reuse (visibility_reuse = 0) both combinations take
+//     the UNSHADOWED targets p_hat: the primary reservoir keeps an occluded
+//     sample, the reuse traces no shadow ray, and the final shading traces
+//     one. Still exactly unbiased (the weights sum to 1 wherever any target
+//     is positive, and p_hat_q > 0 wherever the shadowed integrand is: GRIS
+//     asks no more); noisier where lights are occluded, as occluded samples
+//     are reused, and cheaper by every pass's shadow rays.
 //   biased: resampling with the unshadowed p_hat_q, W = (sum of w_i) / (M
 //     p_hat_q(y)) with w_i = p_hat_q(y_i) W_i M_i (the paper's biased
 //     combination), a shadow ray when shading. Cheaper; darker where a
@@ -83,12 +90,13 @@ PN_FN bool restir_similar(const RestirPixel& q, const RestirPixel& n) {
   return dot(q.bsdf.frame.n, n.bsdf.frame.n) >= 0.906307787f && std::fabs(n.t - q.t) <= 0.1f * q.t;
 }
 
-// The shadowed target at pixel `at` of reservoir sample y: 0 where y is occluded from it.
+// The target at pixel `at` of reservoir sample y as the unbiased reuse weighs it: with `shadowed` (visibility
+// reuse), 0 where y is occluded from `at` (a shadow ray); else the unshadowed p_hat.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
-PN_HD float restir_shadowed_target(const Tracer& tracer, const SceneView& scene, const RestirPixel& at,
-                                   const LightPoint& y) {
+PN_HD float restir_reuse_target(const Tracer& tracer, const SceneView& scene, const RestirPixel& at,
+                                const LightPoint& y, bool shadowed) {
   const TargetEval t = restir_target<kFeatures>(scene, at.bsdf, at.p, at.wo, y);
-  if (t.p_hat > 0.f && !light_visible(tracer, at.p, at.bsdf.ng, t.wi, y.y, y.infinite != 0)) return 0.f;
+  if (shadowed && t.p_hat > 0.f && !light_visible(tracer, at.p, at.bsdf.ng, t.wi, y.y, y.infinite != 0)) return 0.f;
   return t.p_hat;
 }
 
@@ -98,15 +106,15 @@ PN_HD float restir_shadowed_target(const Tracer& tracer, const SceneView& scene,
 // against c alone, as a pair that holds 1/k of the total weight:
 //   m_i(y) = (1/k) M_i p_i(y) / (M_i p_i(y) + (M_c/k) p_c(y)),
 //   m_c(y) = (1/k) sum_i (M_c/k) p_c(y) / (M_i p_i(y) + (M_c/k) p_c(y)),
-// p_j the shadowed target at pixel j. The weights sum to 1 wherever p_c(y) > 0
+// p_j the target at pixel j (shadowed with visibility reuse). The weights sum to 1 wherever p_c(y) > 0
 // (each pair's two terms sum to 1/k), so the combination is unbiased, and with
 // equal confidences and targets every reservoir gets 1/n, as the generalized
 // balance heuristic. Bounded as that one: m_i p_c W_i <= (M_i / M_c) p_i W_i.
-// Shadow rays: 2k per pixel and pass (each neighbour's sample seen from q, q's
-// sample seen from each neighbour), not k^2 + k.
+// Shadow rays (visibility reuse): 2k per pixel and pass (each neighbour's
+// sample seen from q, q's sample seen from each neighbour), not k^2 + k.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Reservoir restir_combine_pairwise(const Tracer& tracer, const SceneView& scene, const RestirPixel* const* at,
-                                        const Reservoir* const* in, uint32_t n, Rng& rng) {
+                                        const Reservoir* const* in, uint32_t n, Rng& rng, bool shadowed) {
   Reservoir r;
   for (uint32_t i = 0; i < n; ++i) r.M += in[i]->M;
   const Reservoir& c = *in[0];
@@ -115,7 +123,7 @@ PN_HD Reservoir restir_combine_pairwise(const Tracer& tracer, const SceneView& s
   if (c.W > 0.f) {  // q's own sample: its weight against every neighbour
     float m_c = 0.f;
     for (uint32_t i = 1; i < n; ++i) {
-      const float p_i = restir_shadowed_target<kFeatures>(tracer, scene, *at[i], c.s);
+      const float p_i = restir_reuse_target<kFeatures>(tracer, scene, *at[i], c.s, shadowed);
       const float den = in[i]->M * p_i + mc * c.p_hat;
       m_c += den > 0.f ? mc * c.p_hat / den : 0.f;
     }
@@ -125,9 +133,9 @@ PN_HD Reservoir restir_combine_pairwise(const Tracer& tracer, const SceneView& s
   for (uint32_t i = 1; i < n; ++i) {  // each neighbour's sample, against q's alone
     const Reservoir& ri = *in[i];
     if (!(ri.W > 0.f)) continue;
-    const float p_c = restir_shadowed_target<kFeatures>(tracer, scene, *at[0], ri.s);
+    const float p_c = restir_reuse_target<kFeatures>(tracer, scene, *at[0], ri.s, shadowed);
     if (!(p_c > 0.f)) continue;
-    const float num = ri.M * ri.p_hat;  // its own target; visible, as W > 0
+    const float num = ri.M * ri.p_hat;  // its own target (with visibility reuse, visible as W > 0)
     const float m_i = num / (num + mc * p_c) / k;
     if (r.update(ri.s, m_i * p_c * ri.W, rng.uniform())) r.p_hat = p_c;
   }
@@ -138,22 +146,23 @@ PN_HD Reservoir restir_combine_pairwise(const Tracer& tracer, const SceneView& s
 // Combines n reservoirs: in[i] holds a sample found at pixel at[i]; at[0] and
 // in[0] are q's own, where the result is used (see the top of this file).
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
-PN_HD Reservoir restir_combine(const Tracer& tracer, const SceneView& scene, bool unbiased,
-                               const RestirPixel* const* at, const Reservoir* const* in, uint32_t n, Rng& rng,
-                               bool pairwise = false) {
+PN_HD Reservoir restir_combine(const Tracer& tracer, const SceneView& scene, const RestirSettings& rs,
+                               const RestirPixel* const* at, const Reservoir* const* in, uint32_t n, Rng& rng) {
   const RestirPixel& q = *at[0];
-  if (unbiased && pairwise) return restir_combine_pairwise<kFeatures>(tracer, scene, at, in, n, rng);
+  const bool shadowed = rs.visibility_reuse != 0;
+  if (rs.unbiased && rs.pairwise) return restir_combine_pairwise<kFeatures>(tracer, scene, at, in, n, rng, shadowed);
   Reservoir r;
   float M = 0.f;
   for (uint32_t i = 0; i < n; ++i) M += in[i]->M;
   r.M = M;
-  if (unbiased) {
+  if (rs.unbiased) {
     // The generalized balance heuristic (Talbot; Lin et al. 2022, GRIS): reservoir i's sample y_i enters with
-    // m_i(y_i) p_hat_q(y_i) W_i, where m_i(y) = M_i p_hat_i(y) / sum_j M_j p_hat_j(y) and every target is the
-    // shadowed one at its own pixel; then W = (sum of weights) / p_hat_q(y). Unlike 1/Z, the weight is bounded
-    // (m_i p_hat_q W_i <= M_i p_hat_i W_i p_hat_q / (M_q p_hat_q) = w_sum_i / M_q): a sample whose own target
-    // was small (a point near a sphere light's silhouette, drawn by its cone) cannot become a firefly where
-    // another pixel's target is large. n^2 - n targets and shadow rays per pixel and pass.
+    // m_i(y_i) p_hat_q(y_i) W_i, where m_i(y) = M_i p_hat_i(y) / sum_j M_j p_hat_j(y) and every target is of one
+    // kind (shadowed with visibility reuse) at its own pixel; then W = (sum of weights) / p_hat_q(y). Unlike 1/Z,
+    // the weight is bounded (m_i p_hat_q W_i <= M_i p_hat_i W_i p_hat_q / (M_q p_hat_q) = w_sum_i / M_q): a
+    // sample whose own target was small (a point near a sphere light's silhouette, drawn by its cone) cannot
+    // become a firefly where another pixel's target is large. n^2 - n targets (and, with visibility reuse, shadow
+    // rays) per pixel and pass.
     for (uint32_t i = 0; i < n; ++i) {
       const Reservoir& ri = *in[i];
       if (!(ri.W > 0.f)) continue;
@@ -161,9 +170,9 @@ PN_HD Reservoir restir_combine(const Tracer& tracer, const SceneView& scene, boo
       for (uint32_t j = 0; j < n; ++j) {
         float p_j;
         if (j == i) {
-          p_j = ri.p_hat;  // its own target; visible, as W > 0
+          p_j = ri.p_hat;  // its own target (with visibility reuse, visible as W > 0)
         } else {
-          p_j = restir_shadowed_target<kFeatures>(tracer, scene, *at[j], ri.s);
+          p_j = restir_reuse_target<kFeatures>(tracer, scene, *at[j], ri.s, shadowed);
         }
         if (j == 0) p_q = p_j;
         if (j == i) num = in[j]->M * p_j;
@@ -211,7 +220,7 @@ PN_HD Reservoir restir_spatial_reuse(const Tracer& tracer, const SceneView& scen
   const RestirPixel* at[kMaxRestirNeighbors + 1];
   const Reservoir* res[kMaxRestirNeighbors + 1];
   for (uint32_t i = 0; i < n; ++i) at[i] = &pixels[idx[i]], res[i] = &in[idx[i]];
-  return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, n, rng, rs.pairwise != 0);
+  return restir_combine<kFeatures>(tracer, scene, rs, at, res, n, rng);
 }
 
 // Temporal reuse at pixel `pixel_index`: q's reservoir `current` (from the
@@ -233,7 +242,7 @@ PN_HD Reservoir restir_temporal_reuse(const Tracer& tracer, const SceneView& sce
   Rng rng = Rng::for_pass(pixel_index, sample_index, seed, kRestirTemporalPass);
   const RestirPixel* at[2] = {&q, &history_pixel};
   const Reservoir* res[2] = {&current, &h};
-  return restir_combine<kFeatures>(tracer, scene, rs.unbiased != 0, at, res, 2, rng, rs.pairwise != 0);
+  return restir_combine<kFeatures>(tracer, scene, rs, at, res, 2, rng);
 }
 
 // The reuse steps of a frame, in order: temporal reuse first (with `temporal`), then the spatial passes.
@@ -266,30 +275,34 @@ PN_HD Reservoir restir_reuse(const Tracer& tracer, const SceneView& scene, const
                                          r.seed, r.pass);
 }
 
+// Whether the reuse weighs by shadowed targets (a shadow ray per target it evaluates): the unbiased combination
+// with visibility reuse.
+PN_FN bool restir_reuse_traces(const RestirSettings& rs) { return rs.unbiased && rs.visibility_reuse; }
+
 // The most shadow rays restir_reuse can trace at one pixel (the combination traces only where a target is
-// positive; these are the loops' lengths): none for the biased combination (unshadowed targets), 2 (n - 1) with
-// pairwise MIS and n (n - 1) with the generalized balance heuristic, n the reservoirs combined (q's and the
-// neighbours', or q's and its history).
+// positive; these are the loops' lengths): none for unshadowed targets (the biased combination, or no visibility
+// reuse), 2 (n - 1) with pairwise MIS and n (n - 1) with the generalized balance heuristic, n the reservoirs
+// combined (q's and the neighbours', or q's and its history).
 PN_FN uint32_t restir_reuse_max_rays(const RestirSettings& rs, uint32_t pass) {
-  if (!rs.unbiased) return 0;
+  if (!restir_reuse_traces(rs)) return 0;
   const uint32_t n = pass == kRestirTemporalPass ? 2u : pn_min(rs.neighbors, kMaxRestirNeighbors) + 1u;
   return rs.pairwise ? 2u * (n - 1u) : n * (n - 1u);
 }
 
-// The same for restir_shade: a shadow ray only where the reservoirs' targets were unshadowed (biased).
-PN_FN uint32_t restir_shade_max_rays(const RestirSettings& rs) { return rs.unbiased ? 0u : 1u; }
+// The same for restir_shade: a shadow ray only where the reservoirs' targets were unshadowed.
+PN_FN uint32_t restir_shade_max_rays(const RestirSettings& rs) { return restir_reuse_traces(rs) ? 0u : 1u; }
 
 // Pass 4: the direct light of q's first vertex from its reservoir, weighted by
 // MIS against the BSDF sample of q's path (core/integrator.h,
 // bsdf_emission_weight), unshadowed where the reservoir's target already holds
-// visibility (unbiased), else after a shadow ray.
+// visibility (unbiased with visibility reuse), else after a shadow ray.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 restir_shade(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s,
                         const RestirPixel& q, const Reservoir& r) {
   if (!q.valid || !(r.W > 0.f)) return Vec3(0.f);
   const TargetEval t = restir_target<kFeatures>(scene, q.bsdf, q.p, q.wo, r.s);
   if (!(t.p_hat > 0.f)) return Vec3(0.f);
-  if (!s.restir.unbiased && !light_visible(tracer, q.p, q.bsdf.ng, t.wi, r.s.y, r.s.infinite != 0)) return Vec3(0.f);
+  if (!restir_reuse_traces(s.restir) && !light_visible(tracer, q.p, q.bsdf.ng, t.wi, r.s.y, r.s.infinite != 0)) return Vec3(0.f);
   float w = 1.f;
   if (s.mis != Mis::None) {
     const LightSampleContext ctx{q.p, q.bsdf.frame.n};

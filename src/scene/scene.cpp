@@ -110,11 +110,11 @@ void parse_camera(const Node& n, Scene& s) {
   }
 }
 
-// "restir": {"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "pairwise", "source",
-// "temporal", "temporal_cap"} (core/light_selection.h, RestirSettings).
+// "restir": {"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "pairwise", "visibility_reuse",
+// "source", "temporal", "temporal_cap"} (core/light_selection.h, RestirSettings).
 void parse_restir(const Node& n, RestirSettings* r) {
-  n.expect_object({"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "pairwise", "source", "temporal",
-                   "temporal_cap"});
+  n.expect_object({"candidates", "spatial_passes", "neighbors", "radius", "unbiased", "pairwise", "visibility_reuse",
+                   "source", "temporal", "temporal_cap"});
   if (n.has("candidates")) r->candidates = uint32_t(n.at("candidates").integer(1, long(kMaxRestirCandidates)));
   if (n.has("spatial_passes")) r->spatial_passes = uint32_t(n.at("spatial_passes").integer(0, long(kMaxRestirPasses)));
   if (n.has("neighbors")) r->neighbors = uint32_t(n.at("neighbors").integer(1, long(kMaxRestirNeighbors)));
@@ -129,6 +129,7 @@ void parse_restir(const Node& n, RestirSettings* r) {
   flag("pairwise", &r->pairwise);
   if (r->pairwise && !r->unbiased)
     n.at("pairwise").fail("pairwise MIS is for the unbiased combination (unbiased: true)");
+  flag("visibility_reuse", &r->visibility_reuse);
   flag("temporal", &r->temporal);
   if (n.has("temporal_cap")) r->temporal_cap = n.at("temporal_cap").real(1.0, 1000.0);
   if (n.has("source")) {
@@ -625,6 +626,7 @@ std::string light_selection_label(LightSelection method, const RestirSettings& r
     std::snprintf(cap, sizeof cap, "%g", double(r.temporal_cap));
     s += std::string(", temporal reuse (history M <= ") + cap + " x)";
   }
+  if (!r.visibility_reuse) s += ", unshadowed reuse";
   return s + (r.unbiased ? (r.pairwise ? ", unbiased, pairwise MIS)" : ", unbiased)") : ", BIASED)");
 }
 

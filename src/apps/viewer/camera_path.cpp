@@ -116,6 +116,7 @@ const std::map<std::string, Check>& checks() {
       {"strategy", strategy()},       {"mis", mis()},
       {"light_selection", light_selection()}, {"restir_temporal", boolean()},
       {"restir_pairwise", boolean()}, {"restir_bvh_candidates", boolean()},
+      {"restir_visibility_reuse", boolean()},
       {"restir_candidates", integer_in(1, long(kMaxRestirCandidates))},
       {"restir_spatial", integer_in(0, long(kMaxRestirPasses))},
       {"spp_per_frame", integer_in(1, 4096)},

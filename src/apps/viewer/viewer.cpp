@@ -71,6 +71,7 @@ struct ImageSettings {
   LightSelection selection = LightSelection::Power;
   bool restir_temporal = false;  // restir: temporal reuse between frames (history kept until the image restarts)
   bool restir_pairwise = false;  // restir (unbiased): pairwise MIS in the reuse
+  bool restir_visibility_reuse = true;  // restir: shadowed targets in the reuse (else unshadowed)
   bool restir_bvh_source = false;  // restir: candidates drawn by the light BVH (else by power)
   int restir_candidates = 32, restir_spatial = 2;  // restir: candidates per pixel, spatial passes
   int max_depth = 0;
@@ -83,6 +84,7 @@ struct ImageSettings {
   bool operator==(const ImageSettings& o) const {
     return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && selection == o.selection &&
            restir_temporal == o.restir_temporal && restir_pairwise == o.restir_pairwise &&
+           restir_visibility_reuse == o.restir_visibility_reuse &&
            restir_bvh_source == o.restir_bvh_source && restir_candidates == o.restir_candidates &&
            restir_spatial == o.restir_spatial && max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
            right == o.right && equal_time == o.equal_time && scene_overrides == o.scene_overrides;
@@ -201,6 +203,7 @@ class Viewer {
   LightSelection selection_ = LightSelection::Power;
   bool restir_temporal_ = false;
   bool restir_pairwise_ = false;
+  bool restir_visibility_reuse_ = true;
   bool restir_bvh_source_ = false;
   int restir_candidates_ = 32, restir_spatial_ = 2;
   int max_depth_ = 8;
@@ -262,6 +265,7 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   selection_ = scene_->render.light_selection;
   restir_temporal_ = scene_->render.restir.temporal != 0;
   restir_pairwise_ = scene_->render.restir.pairwise != 0;
+  restir_visibility_reuse_ = scene_->render.restir.visibility_reuse != 0;
   restir_bvh_source_ = scene_->render.restir.source == LightSelection::Bvh;
   restir_candidates_ = int(scene_->render.restir.candidates);
   restir_spatial_ = int(scene_->render.restir.spatial_passes);
@@ -406,6 +410,7 @@ ImageSettings Viewer::wanted() const {
   s.restir_pairwise = selection_ == LightSelection::Restir && restir_pairwise_ && scene_->render.restir.unbiased;
   if (selection_ == LightSelection::Restir) {  // else the defaults: changing them restarts nothing
     s.restir_bvh_source = restir_bvh_source_;
+    s.restir_visibility_reuse = restir_visibility_reuse_;
     s.restir_candidates = restir_candidates_;
     s.restir_spatial = restir_spatial_;
   }
@@ -469,6 +474,7 @@ void Viewer::restart(const ImageSettings& s) {
   base.integrator.restir.pairwise = s.restir_pairwise ? 1u : 0u;
   if (s.selection == LightSelection::Restir) {
     base.integrator.restir.source = s.restir_bvh_source ? LightSelection::Bvh : LightSelection::Power;
+    base.integrator.restir.visibility_reuse = s.restir_visibility_reuse ? 1u : 0u;
     base.integrator.restir.candidates = uint32_t(s.restir_candidates);
     base.integrator.restir.spatial_passes = uint32_t(s.restir_spatial);
   }
@@ -633,6 +639,7 @@ void Viewer::save_camera_file(const std::string& path) {
   overrides.push_back(std::string("render.restir.temporal=") + (restir_temporal_ ? "true" : "false"));
   if (scene_->render.restir.unbiased)  // pairwise MIS is for the unbiased combination only
     overrides.push_back(std::string("render.restir.pairwise=") + (restir_pairwise_ ? "true" : "false"));
+  overrides.push_back(std::string("render.restir.visibility_reuse=") + (restir_visibility_reuse_ ? "true" : "false"));
   overrides.push_back(std::string("render.restir.source=\"") + (restir_bvh_source_ ? "bvh" : "power") + "\"");
   overrides.push_back("render.restir.candidates=" + std::to_string(restir_candidates_));
   overrides.push_back("render.restir.spatial_passes=" + std::to_string(restir_spatial_));
@@ -779,6 +786,8 @@ void Viewer::draw_panel() {
   if (selection_ == LightSelection::Restir) {
     ImGui::Checkbox("temporal reuse", &restir_temporal_);
     if (scene_->render.restir.unbiased) ImGui::Checkbox("pairwise MIS", &restir_pairwise_);
+    // Off: unshadowed targets in the reuse, one shadow ray when shading (the study's restir-unshadowed).
+    ImGui::Checkbox("visibility reuse", &restir_visibility_reuse_);
     // ris-bvh of the study: BVH candidates, no spatial pass, no temporal reuse.
     ImGui::Checkbox("BVH candidates", &restir_bvh_source_);
     ImGui::SliderInt("candidates", &restir_candidates_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
@@ -789,6 +798,7 @@ void Viewer::draw_panel() {
     r.temporal = restir_temporal_ ? 1u : 0u;
     r.pairwise = r.unbiased && restir_pairwise_ ? 1u : 0u;
     r.source = restir_bvh_source_ ? LightSelection::Bvh : LightSelection::Power;
+    r.visibility_reuse = restir_visibility_reuse_ ? 1u : 0u;
     r.candidates = uint32_t(restir_candidates_);
     r.spatial_passes = uint32_t(restir_spatial_);
     ImGui::TextDisabled("%s", light_selection_label(selection_, r).c_str());
@@ -938,6 +948,7 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "restir_temporal") restir_temporal_ = v.get<bool>();
   else if (k == "restir_pairwise") restir_pairwise_ = v.get<bool>();
   else if (k == "restir_bvh_candidates") restir_bvh_source_ = v.get<bool>();
+  else if (k == "restir_visibility_reuse") restir_visibility_reuse_ = v.get<bool>();
   else if (k == "restir_candidates") restir_candidates_ = v.get<int>();
   else if (k == "restir_spatial") restir_spatial_ = v.get<int>();
   else if (k == "spp_per_frame") spp_per_frame_ = v.get<int>();
