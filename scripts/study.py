@@ -933,7 +933,7 @@ MANY_SELECTIONS = {
 # Methods whose renders are not independent samples (the slope check leaves them out) or not unbiased.
 MANY_CORRELATED = {"restir-temporal"}
 MANY_STRATEGIES = ["area", "solid-angle", "projected-solid-angle"]
-MANY_SWEEP_SELECTIONS = ["power", "bvh", "restir", "restir-bvh"]
+MANY_SWEEP_SELECTIONS = ["power", "bvh", "ris-bvh", "restir", "restir-bvh-unshadowed"]
 MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-bvh": "#17becf",
                "restir-temporal": "#bcbd22", "restir-biased": "#9467bd", "ris-bvh": "#ff7f0e",
                "restir-unshadowed": "#98df8a", "restir-bvh-unshadowed": "#9edae5"}

@@ -1,6 +1,6 @@
 """The light BVH must adapt to the shading point: on many-spheres (10,000 lamps in a slab above the floor, direct
 lighting) a floor point's light comes mostly from the lamps near it, which power selection rarely picks. Per sample,
-the BVH's MSE is about 0.2x power's there (0.49x while the importance's distance was clamped at the nodes' whole
+the BVH's MSE is about 0.17x power's there (0.49x while the importance's distance was clamped at the nodes' whole
 bounding radius, which made the upper levels' siblings equally important at every floor point: core/light_bvh.h)."""
 import numpy as np
 
