@@ -304,7 +304,8 @@ struct PathState {
 
 // The camera ray of sample `sample_index` of pixel (px, py): its own RNG stream,
 // a uniformly jittered position in the pixel (box filter). With `primary`
-// (restir's frame-level passes) that pixel's record and reservoir start empty.
+// (restir's frame-level passes) that pixel's record starts invalid (and its
+// reservoir without a sample), until the path's first vertex writes both.
 PN_FN PathState start_path(const Camera& camera, int px, int py, uint32_t sample_index, uint32_t seed,
                            RestirPrimaryOut* primary = nullptr) {
   PathState st;
@@ -317,9 +318,9 @@ PN_FN PathState start_path(const Camera& camera, int px, int py, uint32_t sample
   st.L = Vec3(0.f);
   st.depth = 0;
   st.active = 1;
-  if (primary) {
+  if (primary) {  // no record yet: every pass reads a pixel's reservoir only where its record is valid
     primary->pixel->valid = 0;
-    *primary->reservoir = Reservoir();
+    primary->reservoir->W = 0.f;
   }
   return st;
 }

@@ -74,12 +74,13 @@ struct Reservoir {
 };
 
 // The first vertex of a camera path as a frame-level pass needs it: the
-// shading point, its BSDF, and the radiance the rest of the path carried.
+// shading point and its BSDF. The rest of the path's radiance (without the
+// first vertex's direct light) is kept by the backend apart: the reuse passes,
+// which read these records of every neighbour, never need it.
 struct RestirPixel {
   Bsdf bsdf;
   Vec3 p;
   Vec3 wo;
-  Vec3 L;               // the path's radiance without the first vertex's direct light
   float t = 0.f;        // distance from the camera (neighbour similarity)
   uint32_t valid = 0;   // 0: the camera ray found no surface that reflects
 };

@@ -576,6 +576,7 @@ class CpuBackend final : public Backend {
     const uint32_t temporal = s.restir.temporal ? 1u : 0u;
     const uint32_t steps = restir_reuse_steps(s.restir), phases_per_sample = steps + 2;
     std::vector<RestirPixel> gbuffer(pixels);
+    std::vector<Vec3> path_L(pixels);  // each path's radiance without its first vertex's direct light
     std::vector<Reservoir> reservoirs[2] = {std::vector<Reservoir>(pixels), std::vector<Reservoir>(pixels)};
     std::vector<RestirPixel> history_pixels(temporal ? pixels : 0);  // valid = 0: no history yet
     std::vector<Reservoir> history(temporal ? pixels : 0);
@@ -609,14 +610,14 @@ class CpuBackend final : public Backend {
               pool.push_back(start_path(frame.camera, x, y, sample, frame.seed, &primary.back()));
             }
           trace_pool(tracer, s, pool, primary.data());
-          for (size_t k = 0; k < pool.size(); ++k) primary[k].pixel->L = pool[k].L;
+          for (size_t k = 0; k < pool.size(); ++k) path_L[size_t(primary[k].pixel - gbuffer.data())] = pool[k].L;
           return std::make_pair(uint64_t(0), uint64_t(0));
         }
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
             const size_t p = size_t(y) * W + x;
             RestirPrimaryOut primary{&gbuffer[p], &reservoirs[0][p]};
-            gbuffer[p].L = render_sample(tracer, view_, frame.camera, s, x, y, sample, frame.seed, &primary);
+            path_L[p] = render_sample(tracer, view_, frame.camera, s, x, y, sample, frame.seed, &primary);
           }
         return std::make_pair(uint64_t(0), uint64_t(0));
       }
@@ -634,7 +635,7 @@ class CpuBackend final : public Backend {
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
           const size_t p = size_t(y) * W + x;
-          const Vec3 L = gbuffer[p].L + restir_shade(tracer, view_, s, gbuffer[p], final_reservoirs[p]);
+          const Vec3 L = path_L[p] + restir_shade(tracer, view_, s, gbuffer[p], final_reservoirs[p]);
           if (temporal) history_pixels[p] = gbuffer[p], history[p] = final_reservoirs[p];
           PixelSum ps;  // this sample's
           ps.add(L);
@@ -647,12 +648,12 @@ class CpuBackend final : public Backend {
         return run_step(first_sample + phase / phases_per_sample, phase % phases_per_sample, x0, y0, x1, y1);
       });
     } else {  // every pass through the wavefront's stages: the primary pass as waves, the others as chunks
-      struct RadianceSink {  // the path's radiance, its first vertex's direct light left out, to the pixel's record
-        RestirPixel* pixels;
+      struct RadianceSink {  // the path's radiance, its first vertex's direct light left out, to path_L
+        Vec3* path_L;
         Vec3 L;
         void begin(uint32_t, bool) {}
         void add(const Vec3& radiance, uint32_t) { L = radiance; }
-        void end(uint32_t pixel) { pixels[pixel].L = L; }
+        void end(uint32_t pixel) { path_L[pixel] = L; }
       };
       // A pool of one path a pixel (at most wavefront_paths_), and at least one pixel's shadow queries of a pass.
       uint32_t queries = restir_shade_max_rays(s.restir);
@@ -664,7 +665,7 @@ class CpuBackend final : public Backend {
       for (uint32_t i = 0; i < count; ++i) {
         const uint32_t sample = first_sample + i;
         run_waves(hw, frame, sample, 1, RestirFrame{gbuffer.data(), reservoirs[0].data()},
-                  [&] { return RadianceSink{gbuffer.data(), Vec3(0.f)}; }, nullptr);
+                  [&] { return RadianceSink{path_L.data(), Vec3(0.f)}; }, nullptr);
         int cur = 0;  // reservoirs[cur]: the latest
         for (uint32_t step = 0; step < steps; ++step) {
           const RestirReuse r = reuse(sample, restir_reuse_pass(s.restir, step), reservoirs[cur].data());
@@ -683,7 +684,8 @@ class CpuBackend final : public Backend {
             },
             [&](uint32_t k, const RestirChunk& c) {
               uint32_t rays = 0;
-              frame_L[c.first + k] = restir_shade_replay(k, hw.w, c, view_, s, gbuffer.data(), final_reservoirs, &rays);
+              frame_L[c.first + k] =
+                  path_L[c.first + k] + restir_shade_replay(k, hw.w, c, view_, s, gbuffer.data(), final_reservoirs, &rays);
             });
         for (uint32_t p = 0; p < n; ++p) {
           if (temporal) history_pixels[p] = gbuffer[p], history[p] = final_reservoirs[p];

@@ -385,17 +385,16 @@ PN_HD void restir_shade_record(uint32_t i, const WavefrontView& w, const RestirC
   (void)restir_shade<kFeatures>(rec, scene, s, pixels[c.first + i], final[c.first + i]);
 }
 
-// The same, replaying: the pixel's sample (its record's radiance plus the direct light of its first vertex);
-// *rays: the shadow rays it used.
+// The same, replaying: the direct light of the pixel's first vertex, which the backend adds to the rest of its
+// path's radiance; *rays: the shadow rays it used.
 template <uint32_t kFeatures = kAllFeatures>
 PN_HD Vec3 restir_shade_replay(uint32_t i, const WavefrontView& w, const RestirChunk& c, const SceneView& scene,
                                const IntegratorSettings& s, const RestirPixel* pixels, const Reservoir* final,
                                uint32_t* rays) {
   const ReplayShadowQueries rep{w.blocked_bits, w.ray[0].slot + uint64_t(i) * c.max_rays, c.max_rays};
-  const RestirPixel& q = pixels[c.first + i];
-  const Vec3 L = q.L + restir_shade<kFeatures>(rep, scene, s, q, final[c.first + i]);
+  const Vec3 direct = restir_shade<kFeatures>(rep, scene, s, pixels[c.first + i], final[c.first + i]);
   *rays = rep.n;
-  return L;
+  return direct;
 }
 
 }  // namespace pn
