@@ -34,12 +34,12 @@
 //     p_hat_q(y), where every target is (by default, visibility_reuse) the
 //     SHADOWED contribution p_hat V at its own pixel: the primary reservoir is
 //     zeroed when its sample is occluded (visibility reuse), and the final
-//     sample is known to be visible (no shadow ray when shading). Exactly unbiased for any number of passes,
-//     with bounded weights; n^2 - n shadow rays per pixel and pass (n = 1 + the
-//     neighbours found). With `pairwise`: pairwise MIS (restir_combine_pairwise),
-//     also exactly unbiased and bounded, 2 (n - 1) shadow rays per pixel and
-//     pass. The paper's own unbiased combination (1/Z, Algorithm
-//     6) was tried first: also unbiased, but a sample whose target is small at
+//     sample is known to be visible (no shadow ray when shading). Exactly
+//     unbiased for any number of passes, with bounded weights; n^2 - n shadow
+//     rays per pixel and pass (n = 1 + the neighbours found). With `pairwise`:
+//     pairwise MIS (restir_combine_pairwise), also exactly unbiased and
+//     bounded, 2 (n - 1) shadow rays per pixel and pass. The paper's own
+//     unbiased combination (1/Z, Algorithm 6) was tried first: also unbiased, but a sample whose target is small at
 //     its own pixel and large at q (a point near a sphere light's silhouette,
 //     drawn by the cone) gave fireflies that did not average out (measured on
 //     many-spheres at 1080p: RMSE rising from 16 to 64 spp).
@@ -302,7 +302,8 @@ PN_HD Vec3 restir_shade(const Tracer& tracer, const SceneView& scene, const Inte
   if (!q.valid || !(r.W > 0.f)) return Vec3(0.f);
   const TargetEval t = restir_target<kFeatures>(scene, q.bsdf, q.p, q.wo, r.s);
   if (!(t.p_hat > 0.f)) return Vec3(0.f);
-  if (!restir_reuse_traces(s.restir) && !light_visible(tracer, q.p, q.bsdf.ng, t.wi, r.s.y, r.s.infinite != 0)) return Vec3(0.f);
+  if (!restir_reuse_traces(s.restir) && !light_visible(tracer, q.p, q.bsdf.ng, t.wi, r.s.y, r.s.infinite != 0))
+    return Vec3(0.f);
   float w = 1.f;
   if (s.mis != Mis::None) {
     const LightSampleContext ctx{q.p, q.bsdf.frame.n};

@@ -684,8 +684,8 @@ class CpuBackend final : public Backend {
             },
             [&](uint32_t k, const RestirChunk& c) {
               uint32_t rays = 0;
-              frame_L[c.first + k] =
-                  path_L[c.first + k] + restir_shade_replay(k, hw.w, c, view_, s, gbuffer.data(), final_reservoirs, &rays);
+              const Vec3 direct = restir_shade_replay(k, hw.w, c, view_, s, gbuffer.data(), final_reservoirs, &rays);
+              frame_L[c.first + k] = path_L[c.first + k] + direct;
             });
         for (uint32_t p = 0; p < n; ++p) {
           if (temporal) history_pixels[p] = gbuffer[p], history[p] = final_reservoirs[p];

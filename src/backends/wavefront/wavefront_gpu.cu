@@ -153,8 +153,8 @@ __global__ void __launch_bounds__(kBlock) shade_replay_kernel(RestirChunk c, con
     uint32_t rays = 0;
     const uint32_t pixel = c.first + i;
     const float4 path = p.sum[pixel];  // the primary pass's radiance and every pass's rays
-    const Vec3 L =
-        Vec3(path.x, path.y, path.z) + restir_shade_replay(i, p.view, c, p.scene, p.integrator, pixels, final_reservoirs, &rays);
+    const Vec3 direct = restir_shade_replay(i, p.view, c, p.scene, p.integrator, pixels, final_reservoirs, &rays);
+    const Vec3 L = Vec3(path.x, path.y, path.z) + direct;
     if (history) {
       history_pixels[pixel] = pixels[pixel];
       history[pixel] = final_reservoirs[pixel];
