@@ -61,6 +61,11 @@ bool same(Vec3 a, Vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 bool same(const CameraDesc& a, const CameraDesc& b) {
   return same(a.eye, b.eye) && same(a.target, b.target) && same(a.up, b.up) && a.fov == b.fov;
 }
+bool same(const RestirSettings& a, const RestirSettings& b) {
+  return a.candidates == b.candidates && a.spatial_passes == b.spatial_passes && a.neighbors == b.neighbors &&
+         a.radius == b.radius && a.unbiased == b.unbiased && a.source == b.source && a.temporal == b.temporal &&
+         a.temporal_cap == b.temporal_cap && a.pairwise == b.pairwise && a.visibility_reuse == b.visibility_reuse;
+}
 
 // Everything that changes the rendered image (not exposure: that is display
 // only). Compared every frame; any difference restarts the accumulation.
@@ -69,11 +74,7 @@ struct ImageSettings {
   Strategy strategy = Strategy::SolidAngle;
   Mis mis = Mis::Power;
   LightSelection selection = LightSelection::Power;
-  bool restir_temporal = false;  // restir: temporal reuse between frames (history kept until the image restarts)
-  bool restir_pairwise = false;  // restir (unbiased): pairwise MIS in the reuse
-  bool restir_visibility_reuse = true;  // restir: shadowed targets in the reuse (else unshadowed)
-  bool restir_bvh_source = false;  // restir: candidates drawn by the light BVH (else by power)
-  int restir_candidates = 32, restir_spatial = 2;  // restir: candidates per pixel, spatial passes
+  RestirSettings restir;  // selection restir only (else the defaults: changing the panel's restarts nothing)
   int max_depth = 0;
   int width = 0, height = 0;
   bool split = false;  // the divider is not here: it only chooses which image each column shows
@@ -83,10 +84,8 @@ struct ImageSettings {
 
   bool operator==(const ImageSettings& o) const {
     return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && selection == o.selection &&
-           restir_temporal == o.restir_temporal && restir_pairwise == o.restir_pairwise &&
-           restir_visibility_reuse == o.restir_visibility_reuse &&
-           restir_bvh_source == o.restir_bvh_source && restir_candidates == o.restir_candidates &&
-           restir_spatial == o.restir_spatial && max_depth == o.max_depth && width == o.width && height == o.height && split == o.split && left == o.left &&
+           same(restir, o.restir) && max_depth == o.max_depth && width == o.width && height == o.height &&
+           split == o.split && left == o.left &&
            right == o.right && equal_time == o.equal_time && scene_overrides == o.scene_overrides;
   }
 };
@@ -166,6 +165,7 @@ class Viewer {
   void apply(const PathAction& a);
   // Helpers.
   ImageSettings wanted() const;
+  RestirSettings panel_restir() const;
   int divider_column() const;  // first column of the right side
   void restart(const ImageSettings& s);
   std::vector<float> composed_mean() const;
@@ -400,20 +400,25 @@ Viewer::~Viewer() {
 
 std::string Viewer::scene_label() const { return scene_name_; }
 
+// restir's settings as the panel sets them, over the scene's render.restir.
+RestirSettings Viewer::panel_restir() const {
+  RestirSettings r = scene_->render.restir;
+  r.temporal = restir_temporal_ ? 1u : 0u;
+  r.pairwise = r.unbiased && restir_pairwise_ ? 1u : 0u;
+  r.source = restir_bvh_source_ ? LightSelection::Bvh : LightSelection::Power;
+  r.visibility_reuse = restir_visibility_reuse_ ? 1u : 0u;
+  r.candidates = uint32_t(restir_candidates_);
+  r.spatial_passes = uint32_t(restir_spatial_);
+  return r;
+}
+
 ImageSettings Viewer::wanted() const {
   ImageSettings s;
   s.camera = camera_.desc();
   s.strategy = strategy_;
   s.mis = mis_;
   s.selection = selection_;
-  s.restir_temporal = selection_ == LightSelection::Restir && restir_temporal_;
-  s.restir_pairwise = selection_ == LightSelection::Restir && restir_pairwise_ && scene_->render.restir.unbiased;
-  if (selection_ == LightSelection::Restir) {  // else the defaults: changing them restarts nothing
-    s.restir_bvh_source = restir_bvh_source_;
-    s.restir_visibility_reuse = restir_visibility_reuse_;
-    s.restir_candidates = restir_candidates_;
-    s.restir_spatial = restir_spatial_;
-  }
+  if (selection_ == LightSelection::Restir) s.restir = panel_restir();
   s.max_depth = max_depth_;
   int fw = 0, fh = 0;
   glfwGetFramebufferSize(window_, &fw, &fh);
@@ -470,14 +475,7 @@ void Viewer::restart(const ImageSettings& s) {
   base.integrator.max_depth = s.max_depth;
   base.integrator.mis = s.mis;
   base.integrator.light_selection = s.selection;
-  base.integrator.restir.temporal = s.restir_temporal ? 1u : 0u;
-  base.integrator.restir.pairwise = s.restir_pairwise ? 1u : 0u;
-  if (s.selection == LightSelection::Restir) {
-    base.integrator.restir.source = s.restir_bvh_source ? LightSelection::Bvh : LightSelection::Power;
-    base.integrator.restir.visibility_reuse = s.restir_visibility_reuse ? 1u : 0u;
-    base.integrator.restir.candidates = uint32_t(s.restir_candidates);
-    base.integrator.restir.spatial_passes = uint32_t(s.restir_spatial);
-  }
+  if (s.selection == LightSelection::Restir) base.integrator.restir = s.restir;
   try {
     display_->resize(s.width, s.height);
   } catch (const std::exception& e) {  // registering the new size's pixel buffer with CUDA failed
@@ -794,14 +792,7 @@ void Viewer::draw_panel() {
     ImGui::SliderInt("spatial passes", &restir_spatial_, 0, 4);
     restir_candidates_ = std::clamp(restir_candidates_, 1, int(kMaxRestirCandidates));  // typed values too
     restir_spatial_ = std::clamp(restir_spatial_, 0, int(kMaxRestirPasses));
-    RestirSettings r = scene_->render.restir;
-    r.temporal = restir_temporal_ ? 1u : 0u;
-    r.pairwise = r.unbiased && restir_pairwise_ ? 1u : 0u;
-    r.source = restir_bvh_source_ ? LightSelection::Bvh : LightSelection::Power;
-    r.visibility_reuse = restir_visibility_reuse_ ? 1u : 0u;
-    r.candidates = uint32_t(restir_candidates_);
-    r.spatial_passes = uint32_t(restir_spatial_);
-    ImGui::TextDisabled("%s", light_selection_label(selection_, r).c_str());
+    ImGui::TextDisabled("%s", light_selection_label(selection_, panel_restir()).c_str());
   }
   ImGui::TextDisabled("%zu lights", scene_->lights.size());
   ImGui::SliderInt("spp / frame", &spp_per_frame_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
