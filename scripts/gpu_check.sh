@@ -150,7 +150,14 @@ if listed many-spheres; then
      ! -e "$out/megakernel_restir.exr" ]]
   record "many-spheres restir --megakernel: a one-line error, no image" $?
 fi
-# method[:extra args, comma-separated]: the name is the spec with ':' and ',' and '=' made '_'.
+# method[:extra args, comma-separated]: the name is the spec with ':' and ',' and '=' made '_'. split_spec sets
+# $method and the array extra from one.
+split_spec() {
+  method=${1%%:*}
+  extra=()
+  [[ $1 == *:* ]] && IFS=, read -r -a extra <<<"${1#*:}"
+  return 0
+}
 selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-pairwise,--restir-unshadowed restir:--restir-unshadowed,--restir-source=bvh,--restir-candidates=8 restir:--restir-biased restir:--restir-temporal restir:--traversal=optix restir:--megakernel,--restir-spatial=0"}
 selection_scenes=${GPU_CHECK_SELECTION_SCENES:-"many-spheres sponza-lanterns glossy"}
 for scene in $selection_scenes; do
@@ -158,9 +165,7 @@ for scene in $selection_scenes; do
   scene_args=()
   [[ $scene == many-spheres ]] && scene_args=(--set defaults.lights=2000)
   for spec in $selections; do
-    method=${spec%%:*}
-    extra=()
-    [[ $spec == *:* ]] && IFS=, read -r -a extra <<<"${spec#*:}"
+    split_spec "$spec"
     name=${scene}_sel_$(tr ':,=' '___' <<<"$spec" | tr -d -)
     ok=1
     for b in cpu:0 optix:1; do
@@ -229,7 +234,7 @@ if command -v compute-sanitizer >/dev/null 2>&1; then
   if listed many-spheres; then
     # method[:extra args, comma-separated], as GPU_CHECK_SELECTIONS.
     for spec in bvh restir restir:--restir-pairwise,--restir-unshadowed; do
-      method=${spec%%:*}; extra=(); [[ $spec == *:* ]] && IFS=',' read -r -a extra <<<"${spec#*:}"
+      split_spec "$spec"
       name=$(echo "$spec" | tr ':,=' '___')
       log=$out/memcheck_many-spheres_$name.log
       compute-sanitizer --tool memcheck --leak-check full --error-exitcode 9 \

@@ -85,7 +85,7 @@ PN_FN float light_bvh_importance(const LightBvhNode& b, Vec3 p, Vec3 n) {
   const Vec3 to_p = p - pc;
   const float dist2 = length_sq(to_p);
   const float r2 = length_sq(b.hi - b.lo) * 0.25f;  // the box's bounding sphere, squared radius
-  const Vec3 near = Vec3(clamp(p.x, b.lo.x, b.hi.x), clamp(p.y, b.lo.y, b.hi.y), clamp(p.z, b.lo.z, b.hi.z));
+  const Vec3 near = vmin(vmax(p, b.lo), b.hi);  // the box's nearest point
   const float d2 = pn_max(0.5f * (dist2 + length_sq(p - near)), r2 * (1.f / 64.f));  // d >= r / 8
   if (!(d2 > 0.f)) return 0.f;
   // Angles: theta_b (the bounding sphere seen from p; every direction when p is inside it).

@@ -610,7 +610,7 @@ class CpuBackend final : public Backend {
               pool.push_back(start_path(frame.camera, x, y, sample, frame.seed, &primary.back()));
             }
           trace_pool(tracer, s, pool, primary.data());
-          for (size_t k = 0; k < pool.size(); ++k) path_L[size_t(primary[k].pixel - gbuffer.data())] = pool[k].L;
+          for (const PathState& st : pool) path_L[st.pixel] = st.L;
           return std::make_pair(uint64_t(0), uint64_t(0));
         }
         for (int y = y0; y < y1; ++y)
