@@ -486,15 +486,16 @@ std::vector<test::MeanEstimator> restir_frames(const SphereField& field, const T
       for (int x = 0; x < N; ++x) {
         RestirPixel& q = pixels[size_t(y * N + x)];
         q.p = Vec3(x * Checkerboard::kPitch, 0.f, y * Checkerboard::kPitch);
-        q.bsdf = make_lambert(Vec3(1.f), up);
+        const Bsdf white = make_lambert(Vec3(1.f), up);
+        q.bsdf = pack_bsdf(white);
         q.wo = up;
         q.t = 1.f;
         q.valid = 1;
         Rng rng(uint32_t(y * N + x), uint32_t(f), 17);
         const float us = rng.uniform();
         const Vec2 u = rng.uniform2();
-        const DirectSample d = choose_direct_sample(scene, s, q.bsdf, q.p, q.wo, true, us, u, &rng);
-        in[size_t(y * N + x)] = make_reservoir(tracer, scene, q.bsdf, q.p, q.wo, d, rs.visibility_reuse != 0);
+        const DirectSample d = choose_direct_sample(scene, s, white, q.p, q.wo, true, us, u, &rng);
+        in[size_t(y * N + x)] = make_reservoir(tracer, scene, white, q.p, q.wo, d, rs.visibility_reuse != 0);
       }
     if (rs.temporal) {
       for (size_t i = 0; i < pixels.size(); ++i)

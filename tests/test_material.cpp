@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 #include <string>
 
 #include "core/material.h"
@@ -357,6 +358,35 @@ TEST(Bsdf, NothingBelowTheGeometricSurface) {
       ASSERT_GT(dot(s.wi, ng), 0.f);
     }
   }
+}
+
+
+// restir's records keep a PackedBsdf: unpacking must give back make_bsdf's BSDF bit for bit (frame rebuilt from the
+// normal, has_specular from the weights), or the records would shade differently from the path that wrote them.
+TEST(Bsdf, PackedRoundTripIsExact) {
+  auto same = [](Vec3 a, Vec3 b) {
+    return std::memcmp(&a, &b, sizeof(Vec3)) == 0;
+  };
+  Rng rng(7, 3, 11);
+  int specular = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3 ns = sample_uniform_sphere(rng.uniform2()), ng = sample_uniform_sphere(rng.uniform2());
+    const Vec3 base(rng.uniform(), rng.uniform(), rng.uniform());
+    const float metallic = i % 4 == 0 ? 0.f : rng.uniform(), specular_level = i % 3 == 0 ? 0.f : rng.uniform();
+    const Bsdf b = make_bsdf(i % 7 == 0 ? Vec3(0.f) : base, metallic, rng.uniform(), specular_level, ns, ng);
+    const Bsdf u = unpack_bsdf(pack_bsdf(b));
+    ASSERT_TRUE(same(u.frame.s, b.frame.s) && same(u.frame.t, b.frame.t) && same(u.frame.n, b.frame.n)) << i;
+    ASSERT_TRUE(same(u.ng, b.ng) && same(u.diffuse, b.diffuse) && same(u.metal, b.metal)) << i;
+    ASSERT_EQ(u.metal_weight, b.metal_weight);
+    ASSERT_EQ(u.coat_weight, b.coat_weight);
+    ASSERT_EQ(u.f0_dielectric, b.f0_dielectric);
+    ASSERT_EQ(u.alpha, b.alpha);
+    ASSERT_EQ(u.has_specular, b.has_specular) << i;
+    specular += b.has_specular;
+  }
+  EXPECT_GT(specular, 5000);    // both kinds were packed
+  EXPECT_LT(specular, 19000);
+  EXPECT_EQ(sizeof(PackedBsdf), 64u);
 }
 
 }  // namespace

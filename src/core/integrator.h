@@ -402,7 +402,7 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
         choose_direct_sample<kFeatures>(scene, s, bsdf, hit.p, wo, restir && depth == 0, u_select, u_light, &rng);
     if (depth == 0 && primary) {
       RestirPixel& px = *primary->pixel;
-      px.bsdf = bsdf;
+      px.bsdf = pack_bsdf(bsdf);
       px.p = hit.p;
       px.wo = wo;
       px.t = hit.t;

@@ -175,6 +175,34 @@ PN_FN float bsdf_coat_transmission(const Bsdf& b, float cos_theta) {
 // The Lambertian BSDF of albedo a around normal n (tests, simple scenes).
 PN_FN Bsdf make_lambert(Vec3 albedo, Vec3 n) { return make_bsdf(albedo, 0.f, 1.f, 0.f, n, n); }
 
+// A Bsdf in 64 bytes, for records that many threads read (restir's per-pixel
+// records): the shading normal in place of the frame, which Frame::from_z
+// rebuilds bit for bit as make_bsdf built it, and has_specular left to follow
+// from the weights as make_bsdf sets it. unpack_bsdf(pack_bsdf(b)) == b for every
+// b that make_bsdf returns.
+struct PackedBsdf {
+  Vec3 n, ng, diffuse, metal;
+  float metal_weight = 0.f, coat_weight = 0.f, f0_dielectric = 0.f, alpha = 1.f;
+};
+
+PN_FN PackedBsdf pack_bsdf(const Bsdf& b) {
+  return {b.frame.n, b.ng, b.diffuse, b.metal, b.metal_weight, b.coat_weight, b.f0_dielectric, b.alpha};
+}
+
+PN_FN Bsdf unpack_bsdf(const PackedBsdf& p) {
+  Bsdf b;
+  b.frame = Frame::from_z(p.n);
+  b.ng = p.ng;
+  b.diffuse = p.diffuse;
+  b.metal = p.metal;
+  b.metal_weight = p.metal_weight;
+  b.coat_weight = p.coat_weight;
+  b.f0_dielectric = p.f0_dielectric;
+  b.alpha = p.alpha;
+  b.has_specular = b.metal_weight > 0.f || b.coat_weight > 0.f;
+  return b;
+}
+
 // Probability of sampling the specular lobe for view direction wo_local.
 PN_FN float bsdf_specular_probability(const Bsdf& b, float cos_o) {
   if (!b.has_specular) return 0.f;

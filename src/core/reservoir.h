@@ -76,9 +76,10 @@ struct Reservoir {
 // The first vertex of a camera path as a frame-level pass needs it: the
 // shading point and its BSDF. The rest of the path's radiance (without the
 // first vertex's direct light) is kept by the backend apart: the reuse passes,
-// which read these records of every neighbour, never need it.
-struct RestirPixel {
-  Bsdf bsdf;
+// which read these records of every neighbour, never need it. The BSDF is
+// packed (its normal, not its frame): 96 bytes, aligned for 16-byte loads.
+struct alignas(16) RestirPixel {
+  PackedBsdf bsdf;
   Vec3 p;
   Vec3 wo;
   float t = 0.f;        // distance from the camera (neighbour similarity)

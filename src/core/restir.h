@@ -87,7 +87,7 @@ constexpr uint32_t kRestirTemporalPass = kMaxRestirPasses;
 // Neighbour similarity (Bitterli et al. 2020): normals within 25 degrees and
 // depths within 10%.
 PN_FN bool restir_similar(const RestirPixel& q, const RestirPixel& n) {
-  return dot(q.bsdf.frame.n, n.bsdf.frame.n) >= 0.906307787f && std::fabs(n.t - q.t) <= 0.1f * q.t;
+  return dot(q.bsdf.n, n.bsdf.n) >= 0.906307787f && std::fabs(n.t - q.t) <= 0.1f * q.t;
 }
 
 // The target at pixel `at` of reservoir sample y as the unbiased reuse weighs it: with `shadowed` (visibility
@@ -95,7 +95,7 @@ PN_FN bool restir_similar(const RestirPixel& q, const RestirPixel& n) {
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD float restir_reuse_target(const Tracer& tracer, const SceneView& scene, const RestirPixel& at,
                                 const LightPoint& y, bool shadowed) {
-  const TargetEval t = restir_target<kFeatures>(scene, at.bsdf, at.p, at.wo, y);
+  const TargetEval t = restir_target<kFeatures>(scene, unpack_bsdf(at.bsdf), at.p, at.wo, y);
   if (shadowed && t.p_hat > 0.f && !light_visible(tracer, at.p, at.bsdf.ng, t.wi, y.y, y.infinite != 0)) return 0.f;
   return t.p_hat;
 }
@@ -185,10 +185,11 @@ PN_HD Reservoir restir_combine(const Tracer& tracer, const SceneView& scene, con
     return r;
   }
   // Biased: the paper's combination with unshadowed targets at q and Z = the sum of all M_i.
+  const Bsdf q_bsdf = unpack_bsdf(q.bsdf);
   for (uint32_t i = 0; i < n; ++i) {
     const Reservoir& ri = *in[i];
     if (!(ri.W > 0.f)) continue;
-    const float p_hat = i == 0 ? ri.p_hat : restir_target<kFeatures>(scene, q.bsdf, q.p, q.wo, ri.s).p_hat;
+    const float p_hat = i == 0 ? ri.p_hat : restir_target<kFeatures>(scene, q_bsdf, q.p, q.wo, ri.s).p_hat;
     if (r.update(ri.s, p_hat * ri.W * ri.M, rng.uniform())) r.p_hat = p_hat;
   }
   if (r.w_sum > 0.f) r.W = r.w_sum / (M * r.p_hat);
@@ -300,17 +301,18 @@ template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 restir_shade(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s,
                         const RestirPixel& q, const Reservoir& r) {
   if (!q.valid || !(r.W > 0.f)) return Vec3(0.f);
-  const TargetEval t = restir_target<kFeatures>(scene, q.bsdf, q.p, q.wo, r.s);
+  const Bsdf bsdf = unpack_bsdf(q.bsdf);
+  const TargetEval t = restir_target<kFeatures>(scene, bsdf, q.p, q.wo, r.s);
   if (!(t.p_hat > 0.f)) return Vec3(0.f);
   if (!restir_reuse_traces(s.restir) && !light_visible(tracer, q.p, q.bsdf.ng, t.wi, r.s.y, r.s.infinite != 0))
     return Vec3(0.f);
   float w = 1.f;
   if (s.mis != Mis::None) {
-    const LightSampleContext ctx{q.p, q.bsdf.frame.n};
+    const LightSampleContext ctx{q.p, bsdf.frame.n};
     const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), ctx, r.s.light) *
                           light_pdf<kFeatures>(scene, s.strategy, scene.lights[r.s.light], ctx, t.wi);
     w = mis_weight(s.mis, restir_mis_density(p_light, float(pn_max(1u, s.restir.candidates))),
-                   bsdf_pdf<(kFeatures & kFeatureSpecular) != 0>(q.bsdf, q.wo, t.wi));
+                   bsdf_pdf<(kFeatures & kFeatureSpecular) != 0>(bsdf, q.wo, t.wi));
   }
   return t.contribution * (t.G * r.W * w);
 }
