@@ -19,6 +19,8 @@
 // same numbers in either measure.
 #pragma once
 
+#include <type_traits>
+
 #include "common.h"
 #include "environment.h"
 #include "geometry.h"
@@ -148,6 +150,15 @@ PN_FN ShadowRay light_shadow_ray(Vec3 p, Vec3 ng, Vec3 wi, Vec3 y, bool infinite
   const float dist = length(to_light);
   return ShadowRay{Ray(o, to_light / dist), dist * (1.f - kShadowEpsilon)};
 }
+
+// A tracer that only records the queries made of it, for a later run that replays their answers
+// (backends/wavefront's RecordShadowQueries), declares `static constexpr bool kRecordsOnly = true`: its answers
+// are placeholders and the run's result is discarded, so code may return right after its last query.
+template <class Tracer, class = void>
+struct tracer_records_only : std::false_type {};
+template <class Tracer>
+struct tracer_records_only<Tracer, std::void_t<decltype(Tracer::kRecordsOnly)>>
+    : std::integral_constant<bool, Tracer::kRecordsOnly> {};
 
 // Whether the light point is visible from shading point p: its shadow ray is clear.
 template <class Tracer>

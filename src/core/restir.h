@@ -306,6 +306,7 @@ PN_HD Vec3 restir_shade(const Tracer& tracer, const SceneView& scene, const Inte
   if (!(t.p_hat > 0.f)) return Vec3(0.f);
   if (!restir_reuse_traces(s.restir) && !light_visible(tracer, q.p, q.bsdf.ng, t.wi, r.s.y, r.s.infinite != 0))
     return Vec3(0.f);
+  if constexpr (tracer_records_only<Tracer>::value) return Vec3(0.f);  // its one query is made: the rest is discarded
   float w = 1.f;
   if (s.mis != Mis::None) {
     const LightSampleContext ctx{q.p, bsdf.frame.n};

@@ -302,6 +302,7 @@ PN_FN void restir_rays_overflow() {
 }
 
 struct RecordShadowQueries {
+  static constexpr bool kRecordsOnly = true;  // core/reservoir.h: the recording run's result is discarded
   ShadowQueue queue;
   uint32_t* positions;  // this pixel's max_rays
   uint32_t max_rays;
