@@ -355,8 +355,8 @@ class ConvergeResult:
 
 def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str] = ("area", "solid-angle"),
              mis: Sequence[str] = ("none",), max_spp: int = 1024, seeds: int = 4, reference_spp: int = 65536,
-             reference_strategy: str = "solid-angle", reference_mis: str = "power", reference_chunk: int = 4096,
-             width: Optional[int] = None, height: Optional[int] = None,
+             reference_strategy: str = "solid-angle", reference_mis: str = "power", reference_selection: str = "power",
+             reference_chunk: int = 4096, width: Optional[int] = None, height: Optional[int] = None,
              overrides: Optional[Mapping[str, Any]] = None, backend: str = "auto", gpus: GpusLike = "all",
              threads: Optional[int] = None, cache: Optional[str] = None, out: Optional[str] = None,
              threshold: float = 0.05, crop_spp: int = 32, crop: Optional[Sequence[int]] = None, fit_min_spp: int = 4,
@@ -405,6 +405,7 @@ def _converge_options(scene: Union[str, "os.PathLike[str]"], options: Mapping[st
     o.mis = [a["mis"]] if isinstance(a["mis"], str) else list(a["mis"])
     o.reference_strategy = a["reference_strategy"]
     o.reference_mis = a["reference_mis"]
+    o.reference_selection = a["reference_selection"]
     o.width = a["width"] or 0
     o.height = a["height"] or 0
     for k in ("max_spp", "seeds", "reference_spp", "reference_chunk", "crop_spp", "fit_min_spp", "frame_spp"):

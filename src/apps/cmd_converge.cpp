@@ -46,6 +46,9 @@ Command add_converge_command(CLI::App& app) {
       ->check(CLI::Range(1, 1 << 24));
   sub->add_option("--reference-strategy", a->reference_strategy, "Strategy of the ground truth")->capture_default_str();
   sub->add_option("--reference-mis", a->reference_mis, "MIS mode of the ground truth")->capture_default_str();
+  sub->add_option("--reference-selection", a->reference_selection,
+                  "Light selection of the ground truth: uniform, power or bvh (the runs select by the scene's)")
+      ->capture_default_str();
   sub->add_option("--cache", a->cache, "Folder for cached ground truths (default: $XDG_CACHE_HOME/penumbra or ~/.cache/penumbra)");
   sub->add_option("--width", a->width, "Image width (default: the scene's)")->check(CLI::Range(1, 16384));
   sub->add_option("--height", a->height, "Image height (default: the scene's)")->check(CLI::Range(1, 16384));

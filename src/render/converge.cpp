@@ -137,6 +137,7 @@ struct Setup {
   int W = 0, H = 0;
   std::vector<Technique> techniques;
   Technique ref_technique;
+  LightSelection ref_selection = LightSelection::Power;
   std::vector<int> crop;
   ReferencePlan ref;
 };
@@ -156,6 +157,10 @@ Setup prepare(const ConvergeOptions& a) {
   s.techniques = cross_techniques(strategy_list, modes);
   s.ref_technique = {parse_strategy(a.reference_strategy, "--reference-strategy"),
                      parse_mis(a.reference_mis, "--reference-mis")};
+  s.ref_selection = parse_light_selection(a.reference_selection, "--reference-selection");
+  if (s.ref_selection == LightSelection::Restir)
+    throw std::invalid_argument("converge: --reference-selection must be uniform, power or bvh, not restir (its frame "
+                                "passes are what the runs compare, not a ground truth)");
   if (a.max_spp < 1 || a.seeds < 1 || a.reference_spp < 1 || a.crop_spp < 1 || a.reference_chunk < 1)
     throw std::invalid_argument(
         "converge: --max-spp, --seeds, --reference-spp, --reference-chunk and --crop-spp must be >= 1");
@@ -174,14 +179,16 @@ Setup prepare(const ConvergeOptions& a) {
   // image and its noise: the scene document after overrides (geometry, camera,
   // resolution, depth), the reference spp and technique. Seed kRefSeed is kept
   // for references only. (Not the chunk size: it changes the order of double
-  // additions only.) References select lights by power whatever the runs do (an
-  // unbiased method, and the same reference for every method compared).
+  // additions only.) References select lights by --reference-selection (power by
+  // default) whatever the runs do: an unbiased method, and the same reference
+  // for every method compared; a selection other than power is in the key.
   json key_doc = s.doc;
   if (key_doc.contains("render") && key_doc["render"].is_object())
     for (const char* k : {"spp", "strategy", "mis", "seed", "light_selection", "restir"}) key_doc["render"].erase(k);
   std::ostringstream key;
   key << std::hex
-      << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(s.ref_technique));
+      << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(s.ref_technique) +
+               (s.ref_selection == LightSelection::Power ? "" : std::string("|") + a.reference_selection));
   const std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
   ReferencePlan& r = s.ref;
   r.key = key.str();
@@ -205,13 +212,13 @@ std::unique_ptr<Backend> backend_for(const ConvergeOptions& a, const Scene& scen
   return make_backend(a.backend, scene, opts, note);
 }
 
-// How the ground truth is rendered: the reference technique, lights selected by
-// power, seed kRefSeed.
+// How the ground truth is rendered: the reference technique and light
+// selection, seed kRefSeed.
 FrameSpec reference_frame(const Setup& s) {
   FrameSpec f = frame_spec(s.scene);
   f.integrator.strategy = s.ref_technique.strategy;
   f.integrator.mis = s.ref_technique.mis;
-  f.integrator.light_selection = LightSelection::Power;
+  f.integrator.light_selection = s.ref_selection;
   f.seed = kRefSeed;
   return f;
 }
@@ -340,7 +347,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
       f.integrator.strategy = tq.strategy;
       f.integrator.mis = tq.mis;
       const bool same = tq.strategy == ref_technique.strategy && tq.mis == ref_technique.mis &&
-                        f.integrator.light_selection == LightSelection::Power;
+                        f.integrator.light_selection == setup.ref_selection;
       const CallCost c = same ? ref_cost : measure_cost(*backend, f, W, H);
       estimate += c.seconds(calls * a.seeds, spp_total * a.seeds);
     }
@@ -455,7 +462,8 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   };
   summary["light_selection"] = light_selection_label(scene.render.light_selection, scene.render.restir);
   summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)},
-                          {"light_selection", "power"}, {"mean", image_mean(ref, false)},
+                          {"light_selection", light_selection_name(setup.ref_selection)},
+                          {"mean", image_mean(ref, false)},
                           {"mean_nolight", image_mean(ref, true)}, {"file", ref_path},
                           {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed},
                           {"chunk_spp", plan.chunk_spp},

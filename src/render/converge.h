@@ -28,6 +28,9 @@ struct ConvergeOptions {
   std::string backend = "auto";
   std::string gpus = "all";  // --gpus: the GPUs that split every render (render/backend.h)
   std::string reference_strategy = "solid-angle", reference_mis = "power";
+  // How the ground truth selects lights: power, or uniform or bvh (restir's frame passes are not offered: a
+  // reference is one unbiased estimator rendered long). Every run's error is against the same reference.
+  std::string reference_selection = "power";
   std::vector<std::string> strategies = {"area", "solid-angle"};
   // MIS modes, each with every strategy that samples lights: the techniques
   // compared, named "area" (MIS none) or "area+power" (render/technique.h).
