@@ -131,6 +131,8 @@ def converge_cmd(args, r):
            "--strategies", ",".join(r.strategies), "--mis", ",".join(r.mis)]
     if r.cfg.get("frame_spp"):
         cmd += ["--frame-spp", str(r.cfg["frame_spp"])]
+    if r.cfg.get("reference_selection"):
+        cmd += ["--reference-selection", r.cfg["reference_selection"]]
     if args.cache:
         cmd += ["--cache", args.cache]
     for s in r.sets:
@@ -153,7 +155,8 @@ def converge_options(args, r):
     return dict(backend=args.backend, gpus=args.gpus, width=r.cfg["width"], height=r.cfg["height"],
                 reference_spp=r.cfg["reference_spp"], reference_chunk=r.cfg["reference_chunk"],
                 max_spp=r.cfg["max_spp"], seeds=r.cfg["seeds"], strategies=list(r.strategies), mis=list(r.mis),
-                frame_spp=r.cfg.get("frame_spp", 0), cache=args.cache, overrides=dict(parse_set(s) for s in r.sets))
+                frame_spp=r.cfg.get("frame_spp", 0), reference_selection=r.cfg.get("reference_selection", "power"),
+                cache=args.cache, overrides=dict(parse_set(s) for s in r.sets))
 
 
 def python_converge(args, r, **kw):
@@ -874,18 +877,23 @@ def finish_lab(args, lab, out_dir, head, sweeps):
 #
 # Every selection method with every light-sampling strategy (MIS power) on the
 # many-light scenes, one `penumbra converge` run per method (the ground truth,
-# selected by power, is shared through the cache); the lights-count sweep of
+# selected by the preset's reference_selection, is shared through the cache); the lights-count sweep of
 # many-spheres; and `penumbra bench` for cost and memory per method.
+# The ground truths select lights by the light BVH: for the same time, its noise is a fifth of power selection's.
+# A reference's own noise adds to every run's MSE alike, and so compresses the ratios between methods: with 4,096
+# spp selected by power (session 22), it was 14% of bvh's MSE at 128 spp and 27-33% of the ReSTIR variants'.
 MANY_PRESETS = {
     "full": dict(headline=dict(width=960, height=540, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096,
-                               frame_spp=32),
+                               frame_spp=32, reference_selection="bvh"),
                  lights=10000, counts=[10, 100, 1000, 10000, 100000],
-                 sweep=dict(width=320, height=180, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096)),
+                 sweep=dict(width=320, height=180, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096,
+                            reference_selection="bvh")),
     # The issue's numbers: 10,000 lights at 1080p on the GPU.
-    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=4096,
-                              frame_spp=32),
+    "gpu": dict(headline=dict(width=1920, height=1080, reference_spp=16384, max_spp=128, seeds=2, reference_chunk=4096,
+                              frame_spp=32, reference_selection="bvh"),
                 lights=10000, counts=[10, 100, 1000, 10000, 100000],
-                sweep=dict(width=480, height=270, reference_spp=4096, max_spp=64, seeds=2, reference_chunk=4096)),
+                sweep=dict(width=480, height=270, reference_spp=16384, max_spp=64, seeds=2, reference_chunk=4096,
+                           reference_selection="bvh")),
     # At 24x16 every lamp is smaller than a pixel, and the pixels it covers in part escape the mask of lamp
     # pixels: the smoke runs look at the floor from below the lamps (none in view).
     # Four seeds: with two, one unbiased method's fitted slope fell to -0.12 in the sanitizer build (restir-bvh
@@ -1071,7 +1079,7 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
             counts.append("many-spheres-direct: many-spheres with direct lighting only, max depth 1, the setting of "
                           "the ReSTIR DI paper's numbers")
         w(f"- Scenes: {', '.join(head)} ({'; '.join(counts)}) at {h['width']}x{h['height']}, max depth "
-          f"8 unless said otherwise, MIS power; ground truth {h['reference_spp']} spp selected by power (solid-angle); renders at 1, 2, ..., "
+          f"8 unless said otherwise, MIS power; ground truth {h['reference_spp']} spp selected by {h.get('reference_selection', 'power')} (solid-angle); renders at 1, 2, ..., "
           f"{h['max_spp']} spp, {h['seeds']} seeds.")
         restir_env = next(iter(head.values())).get("restir", {})
         w("- Selection methods: " + ", ".join(f"`{s}`" for s in MANY_SELECTIONS) + ". `restir`: " +
@@ -1107,6 +1115,13 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
                 fr = runs[sel]["strategies"][st_sa]["frame"]
                 w(f"| `{sel}` | {fr['rmse_nolight']:.4g} | {fmt(fr['efficiency_nolight'] / base)} |")
             w("")
+        floor = runs["power"]["reference"].get("rmse_floor_nolight")
+        if floor:
+            best = min(runs[sel]["strategies"][st_sa]["points"][-1]["rmse_nolight"] for sel in MANY_SELECTIONS
+                       if sel != "restir-biased")
+            w(f"The ground truth's own noise (RMSE {floor:.4g} without lamp pixels, from its variance) is "
+              f"{100 * (floor / best) ** 2:.1f}% of the smallest unbiased MSE at the largest spp, and adds to every "
+              "method's error alike.\n")
         w("RMSE at the largest spp, slope of the log-log fit, and the image mean against the reference's (the "
           "bias, within the noise of both; solid-angle; pixels that see a lamp left out):\n")
         w("| selection | RMSE | slope | mean vs reference |")
