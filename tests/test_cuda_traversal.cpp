@@ -174,53 +174,6 @@ void walk(const BvhHost& b, int32_t ref, const Box& box, const Leaf& leaf, int* 
   }
 }
 
-// A wide node's child box at `slot`, decoded (exact in double, then rounded outwards to float).
-Box wide_child_box(const CwbvhNode& n, int slot) {
-  const uint8_t* qlo[3] = {n.qlo_x, n.qlo_y, n.qlo_z};
-  const uint8_t* qhi[3] = {n.qhi_x, n.qhi_y, n.qhi_z};
-  float lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) {
-    const double step = std::ldexp(1.0, int(n.e[a]) - 127);
-    const double l = double(n.p[a]) + qlo[a][slot] * step, h = double(n.p[a]) + qhi[a][slot] * step;
-    lo[a] = std::nextafter(float(l), -kInf);
-    hi[a] = std::nextafter(float(h), kInf);
-  }
-  return Box{Vec3(lo[0], lo[1], lo[2]), Vec3(hi[0], hi[1], hi[2])};
-}
-
-Box intersect(const Box& a, const Box& b) { return Box{vmax(a.lo, b.lo), vmin(a.hi, b.hi)}; }
-
-// Walks a mesh's wide BVH from node `index`, calling leaf(first, count, box) on
-// its leaves with `box` the intersection of the boxes on the way (what a ray
-// must be inside of to reach the leaf). Checks the encoding: metas, the inner
-// mask, each node reached once (*reached counts them), offsets under 24.
-template <class Leaf>
-void walk_wide(const BvhHost& b, uint32_t index, const Box& box, const Leaf& leaf, std::vector<int>* reached) {
-  ASSERT_LT(index, b.wide.size());
-  ++(*reached)[index];
-  const CwbvhNode& n = b.wide[index];
-  uint32_t inner = 0;
-  for (int s = 0; s < 8; ++s) {
-    const uint32_t meta = n.meta[s];
-    const bool is_inner = (n.imask >> s) & 1u;
-    if (meta == 0) {
-      ASSERT_FALSE(is_inner);
-      continue;
-    }
-    const Box cb = intersect(box, wide_child_box(n, s));
-    if (is_inner) {
-      ASSERT_EQ(meta, (1u << 5) | (24u + uint32_t(s)));
-      walk_wide(b, n.child_base + inner++, cb, leaf, reached);
-    } else {
-      const uint32_t k = meta >> 5, offset = meta & 0x1Fu;
-      ASSERT_TRUE(k == 1u || k == 3u || k == 7u) << "meta " << meta;
-      const uint32_t count = k == 7u ? 3u : (k == 3u ? 2u : 1u);
-      ASSERT_LE(offset + count, 24u);
-      leaf(n.tri_base + offset, count, cb);
-    }
-  }
-}
-
 // Points of a triangle: its corners, edge midpoints and centroid, and random ones.
 std::vector<Vec3> points_of(Vec3 a, Vec3 b, Vec3 c, Rng& rng) {
   std::vector<Vec3> p = {a, b, c, (a + b) * 0.5f, (b + c) * 0.5f, (c + a) * 0.5f, (a + b + c) * (1.f / 3.f)};
@@ -241,17 +194,16 @@ void check_invariants(const Scene& scene, bool splits) {
   int bad_boxes = 0;
   // Bottom level: each mesh once, through its first instance.
   std::vector<bool> seen_mesh(scene.meshes.size(), false);
-  size_t triangles = 0, wide_nodes = 0;
+  size_t triangles = 0;
   for (const BvhInstance& bi : b.instances) {
     const uint32_t mi = scene.instances.at(bi.instance).mesh;
     if (seen_mesh[mi]) continue;
     seen_mesh[mi] = true;
     const TriangleMesh& m = scene.meshes[mi];
     std::vector<std::vector<Box>> leaf_boxes(m.indices.size());  // of each triangle's leaves
-    std::vector<int> reached(b.wide.size(), 0);
-    walk_wide(b, uint32_t(bi.root), everything, [&](uint32_t first, uint32_t count, const Box& box) {
-      for (uint32_t i = 0; i < count; ++i) {
-        const BvhTriangle& t = b.triangles.at(first + i);
+    walk(b, bi.root, everything, [&](int32_t ref, const Box& box) {
+      for (uint32_t i = 0; i < bvh_leaf_count(ref); ++i) {
+        const BvhTriangle& t = b.triangles.at(bvh_leaf_first(ref) + i);
         ASSERT_LT(t.prim, m.indices.size());
         leaf_boxes[t.prim].push_back(box);
         ++triangles;
@@ -262,10 +214,7 @@ void check_invariants(const Scene& scene, bool splits) {
           ASSERT_TRUE(q[0] == v.x && q[1] == v.y && q[2] == v.z) << scene.source << ": a copy that is not the triangle";
         }
       }
-    }, &reached);
-    wide_nodes += size_t(std::count(reached.begin(), reached.end(), 1));
-    ASSERT_EQ(std::count_if(reached.begin(), reached.end(), [](int r) { return r > 1; }), 0)
-        << scene.source << ": a wide node reached twice";
+    }, &bad_boxes);
     // Every triangle in a leaf (in one alone without splits), and each of its
     // points inside some leaf's box: the split parts cover the whole triangle.
     float scale = 0.f;
@@ -285,7 +234,6 @@ void check_invariants(const Scene& scene, bool splits) {
     }
   }
   EXPECT_EQ(triangles, b.triangles.size()) << scene.source << ": triangles outside every mesh's tree";
-  EXPECT_EQ(wide_nodes, b.wide.size()) << scene.source << ": wide nodes outside every mesh's tree";
   // Top level: every item once; an instance's box holds its mesh's vertices placed.
   std::vector<int> items(b.items.size(), 0);
   walk(b, b.root, everything, [&](int32_t ref, const Box& box) {

@@ -1,7 +1,6 @@
-// Embree's SAH builder (rtcBuildBVH) over triangles and over instances. The
-// instances' tree is flattened depth-first into BvhNodes (a node's first child
-// follows it); each mesh's binary tree (leaves of up to 3 triangles) is
-// collapsed into a compressed 8-wide BVH (CwbvhNode), triangles in leaf order.
+// Embree's SAH builder (rtcBuildBVH) over triangles and over instances, its
+// trees flattened depth-first into bvh_layout.h's arrays: a node's first child
+// follows it, triangles lie in leaf order.
 #include "backends/cuda/bvh_build.h"
 
 #include <algorithm>
@@ -107,12 +106,14 @@ class Builder {
   }
   ~Builder() { rtcReleaseDevice(device_); }
 
-  // Builds a binary tree over `prims` (ids: what leaves hold) and hands its
-  // root to `use`, which may read the tree until it returns. With `mesh`,
-  // triangle references may be split (split_triangle), up to as many again as
-  // there are triangles.
-  template <class Use>
-  void build(std::vector<RTCBuildPrimitive>& prims, uint32_t max_leaf, const TriangleMesh* mesh, const Use& use) {
+  // Builds a tree over `prims` (ids: what leaves hold) and flattens it into
+  // out.nodes; `leaf` appends a leaf's primitives and returns its reference.
+  // With `mesh`, triangle references may be split (split_triangle), up to as
+  // many again as there are triangles. Returns the root's reference; *depth:
+  // inner nodes on the longest path.
+  template <class Leaf>
+  int32_t build(std::vector<RTCBuildPrimitive>& prims, uint32_t max_leaf, BvhHost& out, uint32_t* depth,
+                const Leaf& leaf, const TriangleMesh* mesh = nullptr) {
     RTCBVH bvh = rtcNewBVH(device_);
     RTCBuildArguments a = rtcDefaultBuildArguments();
     const size_t count = prims.size();
@@ -143,186 +144,45 @@ class Builder {
       throw std::runtime_error("cuda traversal: Embree's rtcBuildBVH failed (error " +
                                std::to_string(rtcGetDeviceError(device_)) + ")");
     }
-    try {
-      use(root);
-    } catch (...) {
-      rtcReleaseBVH(bvh);
-      throw;
-    }
+    *depth = 0;
+    const int32_t ref = flatten(root, max_leaf, out, 0, depth, leaf);
     rtcReleaseBVH(bvh);
+    return ref;
   }
 
  private:
+  template <class Leaf>
+  int32_t flatten(const TmpNode* n, uint32_t max_leaf, BvhHost& out, uint32_t d, uint32_t* depth, const Leaf& leaf) {
+    if (!n) throw std::runtime_error("cuda traversal: Embree's builder made a node that is not binary");
+    if (n->leaf) {
+      if (n->count == 0 || n->count > max_leaf) throw std::runtime_error("cuda traversal: a leaf of bad size");
+      return leaf(n->prims, n->count);
+    }
+    *depth = std::max(*depth, d + 1);
+    const int32_t index = int32_t(out.nodes.size());
+    out.nodes.emplace_back();
+    BvhNode& node = out.nodes.back();
+    set_box(node.c0, node.z, n->bounds[0]);
+    set_box(node.c1, node.z + 2, n->bounds[1]);
+    const int32_t c0 = flatten(n->child[0], max_leaf, out, d + 1, depth, leaf);
+    const int32_t c1 = flatten(n->child[1], max_leaf, out, d + 1, depth, leaf);
+    out.nodes[size_t(index)].child[0] = c0;  // `node` may have moved
+    out.nodes[size_t(index)].child[1] = c1;
+    return index;
+  }
+
   RTCDevice device_ = nullptr;
 };
 
-void check_node(const TmpNode* n, uint32_t max_leaf) {
-  if (!n) throw std::runtime_error("cuda traversal: Embree's builder made a node that is not binary");
-  if (n->leaf && (n->count == 0 || n->count > max_leaf)) throw std::runtime_error("cuda traversal: a leaf of bad size");
-}
-
-// A binary tree flattened depth-first into out.nodes (the top level); `leaf`
-// returns a leaf's reference. Returns the root's reference; *depth: inner nodes
-// on the longest path.
-template <class Leaf>
-int32_t flatten(const TmpNode* n, uint32_t max_leaf, BvhHost& out, uint32_t d, uint32_t* depth, const Leaf& leaf) {
-  check_node(n, max_leaf);
-  if (n->leaf) return leaf(n->prims, n->count);
-  *depth = std::max(*depth, d + 1);
-  const int32_t index = int32_t(out.nodes.size());
-  out.nodes.emplace_back();
-  BvhNode& node = out.nodes.back();
-  set_box(node.c0, node.z, n->bounds[0]);
-  set_box(node.c1, node.z + 2, n->bounds[1]);
-  const int32_t c0 = flatten(n->child[0], max_leaf, out, d + 1, depth, leaf);
-  const int32_t c1 = flatten(n->child[1], max_leaf, out, d + 1, depth, leaf);
-  out.nodes[size_t(index)].child[0] = c0;  // `node` may have moved
-  out.nodes[size_t(index)].child[1] = c1;
-  return index;
-}
-
-// --- The compressed 8-wide BVH of a mesh (Ylitie, Karras & Laine 2017) --------------
-
-struct WideChild {
-  const TmpNode* node;
-  RTCBounds box;
-};
-
-float half_area(const RTCBounds& b) {
-  const float dx = b.upper_x - b.lower_x, dy = b.upper_y - b.lower_y, dz = b.upper_z - b.lower_z;
-  return dx * dy + dy * dz + dz * dx;
-}
-
-// The children of the wide node made from binary node n: its two, then, while
-// fewer than eight, the inner child of largest area opened into its two (the
-// greedy collapse; Ylitie et al. choose by SAH over all ways, for a few
-// percent).
-std::vector<WideChild> wide_children(const TmpNode* n, uint32_t max_leaf) {
-  std::vector<WideChild> c = {{n->child[0], n->bounds[0]}, {n->child[1], n->bounds[1]}};
-  for (const WideChild& w : c) check_node(w.node, max_leaf);
-  while (c.size() < 8) {
-    int open = -1;
-    float largest = -1.f;
-    for (size_t i = 0; i < c.size(); ++i)
-      if (!c[i].node->leaf && half_area(c[i].box) > largest) open = int(i), largest = half_area(c[i].box);
-    if (open < 0) break;
-    const TmpNode* o = c[size_t(open)].node;
-    check_node(o->child[0], max_leaf);
-    check_node(o->child[1], max_leaf);
-    c[size_t(open)] = {o->child[0], o->bounds[0]};
-    c.push_back({o->child[1], o->bounds[1]});
-  }
-  return c;
-}
-
-// Slot s gets the child that rays of octant s (direction negative in x, y, z
-// where bits 4, 2, 1 of s are set) meet first: the smallest projection of its
-// centre, from the node's, on that direction; greedily, cheapest pair first.
-std::vector<int> wide_slots(const std::vector<WideChild>& c) {
-  const size_t n = c.size();
-  auto centre = [](const RTCBounds& b) {
-    return Vec3(b.lower_x + b.upper_x, b.lower_y + b.upper_y, b.lower_z + b.upper_z) * 0.5f;
-  };
-  Vec3 mid(0.f);
-  for (const WideChild& w : c) mid = mid + centre(w.box);
-  mid = mid * (1.f / float(n));
-  std::vector<std::pair<float, int>> cost;  // (cost, child * 8 + slot)
-  for (size_t i = 0; i < n; ++i)
-    for (int s = 0; s < 8; ++s) {
-      const Vec3 d(s & 4 ? -1.f : 1.f, s & 2 ? -1.f : 1.f, s & 1 ? -1.f : 1.f);
-      cost.emplace_back(dot(centre(c[i].box) - mid, d), int(i) * 8 + s);
-    }
-  std::sort(cost.begin(), cost.end());
-  std::vector<int> slot(n, -1);
-  bool taken[8] = {};
-  for (const auto& [k, is] : cost) {
-    const int i = is / 8, s = is % 8;
-    if (slot[size_t(i)] < 0 && !taken[s]) slot[size_t(i)] = s, taken[s] = true;
-  }
-  return slot;
-}
-
-// Quantizes children boxes to node `w` (origin and exponents from `box`, their
-// union), rounding outwards in double (exact: float coordinates, power-of-two
-// steps).
-void quantize(CwbvhNode& w, const RTCBounds& box, int slot, const RTCBounds& child) {
-  const float lo[3] = {box.lower_x, box.lower_y, box.lower_z}, hi[3] = {box.upper_x, box.upper_y, box.upper_z};
-  const float clo[3] = {child.lower_x, child.lower_y, child.lower_z};
-  const float chi[3] = {child.upper_x, child.upper_y, child.upper_z};
-  uint8_t* qlo[3] = {w.qlo_x, w.qlo_y, w.qlo_z};
-  uint8_t* qhi[3] = {w.qhi_x, w.qhi_y, w.qhi_z};
-  for (int a = 0; a < 3; ++a) {
-    (void)hi;
-    const double step = std::ldexp(1.0, int(w.e[a]) - 127);
-    const double l = std::floor((double(clo[a]) - double(lo[a])) / step);
-    const double h = std::ceil((double(chi[a]) - double(lo[a])) / step);
-    qlo[a][slot] = uint8_t(std::clamp(l, 0.0, 255.0));
-    qhi[a][slot] = uint8_t(std::clamp(h, 0.0, 255.0));
-  }
-}
-
-// Writes wide node `index` from children `c` and, depth first, the nodes below
-// it; `leaf(ids, count)` appends a leaf's triangles to out.triangles. *depth:
-// wide nodes on the longest path.
-template <class Leaf>
-void emit_wide(const std::vector<WideChild>& c, uint32_t index, uint32_t max_leaf, BvhHost& out, uint32_t d,
-               uint32_t* depth, const Leaf& leaf) {
-  *depth = std::max(*depth, d + 1);
-  RTCBounds box = c[0].box;
-  for (const WideChild& w : c) {
-    box.lower_x = std::min(box.lower_x, w.box.lower_x), box.upper_x = std::max(box.upper_x, w.box.upper_x);
-    box.lower_y = std::min(box.lower_y, w.box.lower_y), box.upper_y = std::max(box.upper_y, w.box.upper_y);
-    box.lower_z = std::min(box.lower_z, w.box.lower_z), box.upper_z = std::max(box.upper_z, w.box.upper_z);
-  }
-  CwbvhNode node{};
-  node.p[0] = box.lower_x, node.p[1] = box.lower_y, node.p[2] = box.lower_z;
-  const float extent[3] = {box.upper_x - box.lower_x, box.upper_y - box.lower_y, box.upper_z - box.lower_z};
-  for (int a = 0; a < 3; ++a) {
-    // The smallest step with 255 steps over the extent (upper - lower is rounded: check in double).
-    const double ext = double(a == 0 ? box.upper_x : a == 1 ? box.upper_y : box.upper_z) - double(node.p[a]);
-    int e = extent[a] > 0.f ? int(std::ceil(std::log2(double(extent[a]) / 255.0))) : -126;
-    e = std::max(e, -126);
-    while (std::ldexp(255.0, e) < ext) ++e;
-    if (e > 127) throw std::runtime_error("cuda traversal: a mesh too large for the wide BVH's grid");
-    node.e[a] = uint8_t(e + 127);
-  }
-  const std::vector<int> slot = wide_slots(c);
-  std::vector<size_t> order(c.size());  // children in slot order
-  for (size_t i = 0; i < c.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return slot[a] < slot[b]; });
-  uint32_t inner = 0;
-  for (const WideChild& w : c) inner += w.node->leaf ? 0u : 1u;
-  node.child_base = uint32_t(out.wide.size());
-  out.wide.resize(out.wide.size() + inner);
-  node.tri_base = uint32_t(out.triangles.size());
-  std::vector<std::pair<size_t, uint32_t>> below;  // (child, its node index)
-  for (size_t i : order) {
-    const int s = slot[i];
-    quantize(node, box, s, c[i].box);
-    if (c[i].node->leaf) {
-      const uint32_t offset = uint32_t(out.triangles.size()) - node.tri_base;
-      const uint32_t k = c[i].node->count;
-      leaf(c[i].node->prims, k);
-      node.meta[s] = uint8_t((((1u << k) - 1u) << 5) | offset);
-    } else {
-      node.meta[s] = uint8_t((1u << 5) | (24u + uint32_t(s)));
-      node.imask |= uint8_t(1u << s);
-      below.emplace_back(i, node.child_base + uint32_t(below.size()));
-    }
-  }
-  out.wide[index] = node;
-  for (const auto& [i, at] : below) emit_wide(wide_children(c[i].node, max_leaf), at, max_leaf, out, d + 1, depth, leaf);
-}
-
 }  // namespace
 
-// The knobs are for measurements: leaves of up to 3 references (the most a
-// wide node's slot holds; the SAH decides) and spatial splits are the defaults.
+// The knobs are for measurements: leaves of up to 8 references (the SAH
+// decides) and spatial splits are the defaults.
 BvhBuildOptions BvhBuildOptions::from_environment() {
   BvhBuildOptions o;
   if (const char* env = std::getenv("PENUMBRA_CUDA_LEAF")) {
     const int v = std::atoi(env);
-    if (v >= 1 && v <= int(kCwbvhMaxLeaf)) o.leaf_size = uint32_t(v);
+    if (v >= 1 && v <= int(kMaxLeafSize)) o.leaf_size = uint32_t(v);
   }
   if (const char* env = std::getenv("PENUMBRA_CUDA_SPLITS")) o.spatial_splits = std::strcmp(env, "0") != 0;
   return o;
@@ -331,7 +191,6 @@ BvhBuildOptions BvhBuildOptions::from_environment() {
 BvhView BvhHost::view() const {
   BvhView v;
   v.nodes = nodes.data();
-  v.wide = wide.data();
   v.triangles = triangles.data();
   v.instances = instances.data();
   v.items = items.data();
@@ -344,7 +203,7 @@ BvhView BvhHost::view() const {
 }
 
 uint64_t BvhHost::bytes() const {
-  return nodes.size() * sizeof(BvhNode) + wide.size() * sizeof(CwbvhNode) + triangles.size() * sizeof(BvhTriangle) +
+  return nodes.size() * sizeof(BvhNode) + triangles.size() * sizeof(BvhTriangle) +
          instances.size() * sizeof(BvhInstance) + items.size() * sizeof(uint32_t) + spheres.size() * sizeof(float);
 }
 
@@ -360,9 +219,9 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
   std::vector<bool> mesh_built(scene.meshes.size(), false);
   std::vector<RTCBounds> mesh_bounds(scene.meshes.size());
   size_t leaves = 0;
-  if (options.leaf_size < 1 || options.leaf_size > kCwbvhMaxLeaf)
+  if (options.leaf_size < 1 || options.leaf_size > kMaxLeafSize)
     throw std::runtime_error("cuda traversal: leaf size " + std::to_string(options.leaf_size) + " outside 1.." +
-                             std::to_string(kCwbvhMaxLeaf));
+                             std::to_string(kMaxLeafSize));
   const uint32_t leaf_size = options.leaf_size;
   const bool splits = options.spatial_splits;
   for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
@@ -379,11 +238,11 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
     }
     mesh_bounds[mi] = {lo_all.x, lo_all.y, lo_all.z, 0.f, hi_all.x, hi_all.y, hi_all.z, 0.f};
     uint32_t depth = 0;
-    const auto leaf = [&](const uint32_t* ids, uint32_t count) {
-      if (out.triangles.size() + count > kMaxTriangleReferences)
-        throw std::runtime_error(scene.source + ": the cuda traversal holds at most " +
-                                 std::to_string(kMaxTriangleReferences) +
+    mesh_root[mi] = builder.build(prims, leaf_size, out, &depth, [&](const uint32_t* ids, uint32_t count) {
+      if (out.triangles.size() + count > kMaxLeafFirst)
+        throw std::runtime_error(scene.source + ": the cuda traversal holds at most " + std::to_string(kMaxLeafFirst) +
                                  " triangle references (meshes' triangles, some split in two or more)");
+      const uint32_t first = uint32_t(out.triangles.size());
       for (uint32_t i = 0; i < count; ++i) {
         const auto& idx = m.indices[ids[i]];
         const Vec3 p0 = m.positions[idx[0]], p1 = m.positions[idx[1]], p2 = m.positions[idx[2]];
@@ -391,15 +250,8 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
         out.triangles.push_back(tri);
       }
       ++leaves;
-    };
-    builder.build(prims, leaf_size, splits ? &m : nullptr, [&](const TmpNode* root) {
-      check_node(root, leaf_size);
-      mesh_root[mi] = int32_t(out.wide.size());
-      out.wide.emplace_back();
-      const std::vector<WideChild> c =
-          root->leaf ? std::vector<WideChild>{{root, mesh_bounds[mi]}} : wide_children(root, leaf_size);
-      emit_wide(c, uint32_t(mesh_root[mi]), leaf_size, out, 0, &depth, leaf);
-    });
+      return bvh_leaf_ref(first, count);
+    }, splits ? &m : nullptr);
     out.stats.mesh_triangles += m.indices.size();
     mesh_built[mi] = true;
     ++out.stats.meshes;
@@ -447,17 +299,15 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
                              " instances and spheres");
   if (!prims.empty()) {
     // One item per leaf: the traversal enters an instance from its leaf.
-    builder.build(prims, 1, nullptr, [&](const TmpNode* root) {
-      out.root = flatten(root, 1, out, 0, &out.stats.top_depth,
-                         [](const uint32_t* ids, uint32_t) { return bvh_leaf_ref(ids[0], 1); });
+    out.root = builder.build(prims, 1, out, &out.stats.top_depth, [&](const uint32_t* ids, uint32_t count) {
+      (void)count;
+      return bvh_leaf_ref(ids[0], 1);
     });
   }
-  // The wide traversal's stack takes at most two groups a level (a node's children left, its triangles put off).
-  if (out.stats.top_depth > kBvhStackSize || 2 * out.stats.max_mesh_depth > kCwbvhStackSize)
-    throw std::runtime_error(scene.source + ": the cuda traversal's BVH is " + std::to_string(out.stats.top_depth) +
-                             " nodes deep over the instances and " + std::to_string(out.stats.max_mesh_depth) +
-                             " in a mesh, more than its stacks of " + std::to_string(kBvhStackSize) + " and " +
-                             std::to_string(kCwbvhStackSize / 2));
+  if (out.stats.top_depth + out.stats.max_mesh_depth > kBvhStackSize)
+    throw std::runtime_error(scene.source + ": the cuda traversal's BVH is " +
+                             std::to_string(out.stats.top_depth + out.stats.max_mesh_depth) +
+                             " nodes deep, more than its stack of " + std::to_string(kBvhStackSize));
   out.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

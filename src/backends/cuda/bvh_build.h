@@ -1,7 +1,7 @@
 // The cuda traversal's BVH, built on the host: Embree 3's SAH builder
 // (rtcBuildBVH, RTC_BUILD_QUALITY_HIGH, spatial splits in the meshes' trees)
-// makes a binary tree per mesh, collapsed into a compressed 8-wide BVH, and one
-// over the instances and spheres, flattened; all into bvh_layout.h's arrays. The same arrays are traced on the
+// makes a binary tree per mesh and one over the instances and spheres; they
+// are flattened into bvh_layout.h's arrays. The same arrays are traced on the
 // CPU by the tests and uploaded as they are for the GPU (trace_kernels.h).
 #pragma once
 
@@ -17,15 +17,14 @@ struct BvhStats {
   double build_ms = 0;           // host clock: every rtcBuildBVH call and the flattening
   uint32_t meshes = 0;           // meshes with a BVH (non-empty, placed)
   uint32_t top_depth = 0;        // inner nodes on the longest root-to-leaf path of the top level
-  uint32_t max_mesh_depth = 0;   // wide nodes on the longest root-to-leaf path of the deepest mesh BVH
+  uint32_t max_mesh_depth = 0;   // ... of the deepest mesh BVH
   double mean_leaf_size = 0;     // triangle references per bottom-level leaf
   uint64_t mesh_triangles = 0;   // the built meshes' triangles
   uint64_t triangle_references = 0;  // BvhHost::triangles: more than mesh_triangles where splits copied some
 };
 
 struct BvhHost {
-  std::vector<BvhNode> nodes;        // the top level
-  std::vector<CwbvhNode> wide;       // the meshes'
+  std::vector<BvhNode> nodes;
   std::vector<BvhTriangle> triangles;
   std::vector<BvhInstance> instances;
   std::vector<uint32_t> items;
@@ -40,7 +39,7 @@ struct BvhHost {
 
 struct BvhBuildOptions {
   bool spatial_splits = true;  // in the meshes' trees (PENUMBRA_CUDA_SPLITS=0 turns them off by default)
-  uint32_t leaf_size = 3;      // most triangle references a leaf, 1..kCwbvhMaxLeaf (PENUMBRA_CUDA_LEAF)
+  uint32_t leaf_size = 8;      // most triangle references a leaf, 1..kMaxLeafSize (PENUMBRA_CUDA_LEAF)
   static BvhBuildOptions from_environment();
 };
 

@@ -2,22 +2,13 @@
 // host and device code (the CPU tests check it against Embree; the GPU's
 // trace kernels run it one ray per thread).
 //
-// The top level is a BVH2 (a stack of child references, nearer child first): a
-// leaf holds one item, a sphere (the core's intersect_sphere on the world ray)
-// or an instance, whose mesh's wide BVH is then traversed with the ray moved
-// into its object space (cwbvh_trace). Object-space directions are not
-// renormalised, so t is the world ray's at both levels, as with Embree and
-// OptiX instances.
-//
-// The wide BVH's traversal is Ylitie, Karras & Laine's (HPG 2017, algorithm 1):
-// a stack of node groups, each a node's base index and a mask of its children
-// still to visit (bits 24..31, nearest first) above its inner-node mask (bits
-// 0..7); a node's hit leaves make a triangle group (bits 0..23) tested before
-// its inner children, or put back on the stack for later when few lanes of
-// the warp have triangles to test. Quantized boxes are tested in the form t = q * (step /
-// d) + (p - o) / d (one FMA a plane); its rounding against (b - o) / d is at
-// most gamma(2) |p - o| / |d| on each axis, by which each axis's planes are
-// moved out.
+// One loop for both levels (a stack of child references, nearer child first):
+// a top-level leaf holds one item, a sphere (the core's intersect_sphere on the
+// world ray) or an instance, which is entered by moving the ray into its object
+// space and continuing at its mesh's root; when the stack is popped back to the
+// depth at which the instance was entered, the ray returns to world space.
+// Object-space directions are not renormalised, so t is the world ray's at both
+// levels, as with Embree and OptiX instances.
 //
 // Triangles: the core's watertight test (core/geometry.h), as Embree's robust
 // mode. Alpha-masked triangles are skipped where the core's alpha_discards says
@@ -26,10 +17,7 @@
 // Traversal", JCGT 2(2), 2013), so that rounding never culls a box the ray meets.
 #pragma once
 
-#include <algorithm>
-#include <cmath>
 #include <cstdint>
-#include <cstring>
 
 #include "backends/cuda/bvh_layout.h"
 #include "core/geometry.h"
@@ -103,241 +91,6 @@ PN_FN void bvh_load_triangle(const BvhTriangle* tris, uint32_t i, Vec3* p0, Vec3
 #endif
 }
 
-PN_FN uint32_t bvh_highest_bit(uint32_t x) {
-#if defined(__CUDA_ARCH__)
-  return 31u - uint32_t(__clz(x));
-#else
-  return 31u - uint32_t(__builtin_clz(x));
-#endif
-}
-PN_FN uint32_t bvh_lowest_bit(uint32_t x) {
-#if defined(__CUDA_ARCH__)
-  return uint32_t(__ffs(x)) - 1u;
-#else
-  return uint32_t(__builtin_ctz(x));
-#endif
-}
-PN_FN uint32_t bvh_popcount(uint32_t x) {
-#if defined(__CUDA_ARCH__)
-  return uint32_t(__popc(x));
-#else
-  return uint32_t(__builtin_popcount(x));
-#endif
-}
-
-// A wide node as the 20 words of its five 16-byte loads (bvh_layout.h's field order).
-PN_FN void bvh_load_wide(const CwbvhNode* nodes, uint32_t i, uint32_t w[20]) {
-#if defined(__CUDA_ARCH__)
-  const uint4* p = reinterpret_cast<const uint4*>(nodes + i);
-  for (int k = 0; k < 5; ++k) {
-    const uint4 q = __ldg(p + k);
-    w[4 * k] = q.x, w[4 * k + 1] = q.y, w[4 * k + 2] = q.z, w[4 * k + 3] = q.w;
-  }
-#else
-  std::memcpy(w, nodes + i, sizeof(CwbvhNode));
-#endif
-}
-
-// 2^23 + byte b of a word, exactly: the byte under the exponent of 2^23 (one
-// byte permute on the GPU, where a conversion instruction runs at a quarter of
-// FMA's rate). cwbvh_hits takes the 2^23 off in its per-node terms.
-PN_FN float bvh_byte(uint32_t word, uint32_t b) {
-#if defined(__CUDA_ARCH__)
-  return __uint_as_float(__byte_perm(word, 0x4B000000u, 0x7650u | b));
-#else
-  const uint32_t bits = 0x4B000000u | ((word >> (8u * b)) & 0xFFu);
-  float f;
-  std::memcpy(&f, &bits, sizeof f);
-  return f;
-#endif
-}
-
-PN_FN uint32_t bvh_bits(float f) {
-#if defined(__CUDA_ARCH__)
-  return __float_as_uint(f);
-#else
-  uint32_t u;
-  std::memcpy(&u, &f, sizeof u);
-  return u;
-#endif
-}
-
-// max(a, b, c, 0) and min(a, b, c, d) of floats compared as signed integers
-// (Hopper's three-way DPX instructions): exact where the result is >= 0, and
-// negative (a box behind the ray, rejected either way) where the float one is.
-PN_FN float bvh_max3_0(float a, float b, float c) {
-#if defined(__CUDA_ARCH__)
-  return __int_as_float(__vimax3_s32_relu(__float_as_int(a), __float_as_int(b), __float_as_int(c)));
-#else
-  const int32_t m = std::max({int32_t(bvh_bits(a)), int32_t(bvh_bits(b)), int32_t(bvh_bits(c)), 0});
-  float f;
-  std::memcpy(&f, &m, sizeof f);
-  return f;
-#endif
-}
-PN_FN float bvh_min4(float a, float b, float c, float d) {
-#if defined(__CUDA_ARCH__)
-  return __int_as_float(__vimin3_s32(__float_as_int(a), __float_as_int(b), min(__float_as_int(c), __float_as_int(d))));
-#else
-  const int32_t m = std::min({int32_t(bvh_bits(a)), int32_t(bvh_bits(b)), int32_t(bvh_bits(c)), int32_t(bvh_bits(d))});
-  float f;
-  std::memcpy(&f, &m, sizeof f);
-  return f;
-#endif
-}
-
-// a * b + c rounded once, on both sides (the host's tests then compute what the GPU does).
-PN_FN float bvh_fma(float a, float b, float c) {
-#if defined(__CUDA_ARCH__)
-  return __fmaf_rn(a, b, c);
-#else
-  return std::fma(a, b, c);
-#endif
-}
-
-PN_FN float bvh_as_float(uint32_t w) {
-#if defined(__CUDA_ARCH__)
-  return __uint_as_float(w);
-#else
-  float f;
-  std::memcpy(&f, &w, sizeof f);
-  return f;
-#endif
-}
-
-// A node group: the base index of a node's inner children (or of its triangles)
-// and the mask of what is left to visit.
-struct BvhGroup {
-  uint32_t base;
-  uint32_t bits;
-};
-
-// The triangles of `tri` (bits 0..23) against the ray, nearest hit into *best;
-// true when kAnyHit and one was found. On the GPU, for closest hits, while
-// nodes are left to visit (`nodes_left`), a group is put back on the stack
-// when fewer than bvh.postpone_lanes of the warp's lanes are testing triangles
-// (Ylitie et al.'s postponing): those lanes would run the loop alone while the
-// others wait. (Shadow rays lost by it: a hit found early ends them.)
-template <bool kAnyHit>
-PN_FN bool cwbvh_triangles(const BvhView& bvh, const SceneView* scene, const BvhRay& r, uint32_t inst, BvhGroup tri,
-                           bool nodes_left, BvhGroup* stack, int* sp, HitRecord* best, bool* found) {
-  while (tri.bits != 0u) {
-#if defined(__CUDA_ARCH__)
-    if (!kAnyHit && nodes_left && __popc(__activemask()) < int(bvh.postpone_lanes)) {
-      stack[(*sp)++] = tri;
-      return false;
-    }
-#else
-    (void)nodes_left, (void)stack, (void)sp;
-#endif
-    const uint32_t j = bvh_lowest_bit(tri.bits);
-    tri.bits &= tri.bits - 1u;
-    Vec3 p0, p1, p2;
-    uint32_t prim;
-    bvh_load_triangle(bvh.triangles, tri.base + j, &p0, &p1, &p2, &prim);
-    float t, b1, b2;
-    if (!intersect_triangle(r.tri, p0, p1, p2, 0.f, best->t, &t, &b1, &b2)) continue;
-    const BvhInstance& bi = bvh.instances[inst];
-    if (bvh.any_alpha_masked && bi.alpha_masked &&
-        alpha_discards(*scene, scene->instances[bi.instance], prim, b1, b2))
-      continue;
-    best->t = t;
-    best->instance = bi.instance;
-    best->prim = prim;
-    best->b1 = b1;
-    best->b2 = b2;
-    *found = true;
-    if (kAnyHit) return true;
-  }
-  return false;
-}
-
-// Children of the wide node in words w (bvh_load_wide) that the ray meets
-// before best_t: bits 24 + (slot ^ octinv) for inner ones, triangle bits for
-// leaves (bvh_layout.h).
-PN_FN uint32_t cwbvh_hits(const uint32_t w[20], const BvhRay& r, uint32_t octinv, float best_t) {
-  constexpr float kWiden = 1.f + 2.f * 3.58e-7f;  // as bvh_box_hit
-  constexpr float kGamma2 = 2.f * 1.2e-7f;        // gamma(2), with room
-  const uint32_t e = w[3];
-  // Per axis: a = step / d (the step 2^(e - 127): the exponent bits of a float) and the plane offset
-  // o = (p - o) / d - 2^23 a, for coordinates read as 2^23 + q (bvh_byte): t = (2^23 + q) a + o. The rounding of
-  // o is at most gamma(2) (|(p - o) / d| + |o|); the near planes move towards the ray by it, the far ones away.
-  auto axis = [&](uint32_t shift, float p, float ro, float inv_d, float* a, float* near, float* far) {
-    *a = bvh_as_float(((e >> shift) & 0xFFu) << 23) * inv_d;
-    const float po = (p - ro) * inv_d;
-    const float o = bvh_fma(-8388608.f, *a, po);
-    const float err = kGamma2 * (std::fabs(po) + std::fabs(o));
-    *near = o - err;
-    *far = o + err;
-  };
-  float ax, ay, az, oxn, oxf, oyn, oyf, ozn, ozf;
-  axis(0, bvh_as_float(w[0]), r.o.x, r.inv_d.x, &ax, &oxn, &oxf);
-  axis(8, bvh_as_float(w[1]), r.o.y, r.inv_d.y, &ay, &oyn, &oyf);
-  axis(16, bvh_as_float(w[2]), r.o.z, r.inv_d.z, &az, &ozn, &ozf);
-  // Near and far planes' words (lo, or hi where the direction is negative), slots 0-3 then 4-7.
-  const bool nx = r.inv_d.x < 0.f, ny = r.inv_d.y < 0.f, nz = r.inv_d.z < 0.f;
-  const uint32_t xn[2] = {nx ? w[14] : w[8], nx ? w[15] : w[9]}, xf[2] = {nx ? w[8] : w[14], nx ? w[9] : w[15]};
-  const uint32_t yn[2] = {ny ? w[16] : w[10], ny ? w[17] : w[11]}, yf[2] = {ny ? w[10] : w[16], ny ? w[11] : w[17]};
-  const uint32_t zn[2] = {nz ? w[18] : w[12], nz ? w[19] : w[13]}, zf[2] = {nz ? w[12] : w[18], nz ? w[13] : w[19]};
-  // Four slots' hit bits at once from their meta bytes: the bit index (24 + slot, flipped by octinv, for inner
-  // children; the triangle offset for leaves) and the bits to set (1, or a leaf's unary triangle count; 0: empty).
-  uint32_t index4[2], bits4[2];
-  for (int h = 0; h < 2; ++h) {
-    const uint32_t meta4 = w[6 + h];
-    const uint32_t inner4 = ((meta4 & (meta4 << 1) & 0x10101010u) >> 4) * 0xFFu;
-    index4[h] = (meta4 ^ ((octinv * 0x01010101u) & inner4)) & 0x1F1F1F1Fu;
-    bits4[h] = (meta4 >> 5) & 0x07070707u;
-  }
-  uint32_t hits = 0;
-#ifdef __CUDA_ARCH__
-#pragma unroll
-#endif
-  for (uint32_t s = 0; s < 8; ++s) {
-    const uint32_t h = s >> 2, b = s & 3u;
-    const float x0 = bvh_fma(bvh_byte(xn[h], b), ax, oxn), x1 = bvh_fma(bvh_byte(xf[h], b), ax, oxf);
-    const float y0 = bvh_fma(bvh_byte(yn[h], b), ay, oyn), y1 = bvh_fma(bvh_byte(yf[h], b), ay, oyf);
-    const float z0 = bvh_fma(bvh_byte(zn[h], b), az, ozn), z1 = bvh_fma(bvh_byte(zf[h], b), az, ozf);
-    const float tn = bvh_max3_0(x0, y0, z0), tf = bvh_min4(x1, y1, z1, best_t);
-    if (tn <= tf * kWiden) hits |= ((bits4[h] >> (8u * b)) & 0xFFu) << ((index4[h] >> (8u * b)) & 0xFFu);
-  }
-  return hits;
-}
-
-// A mesh's wide BVH from `root` (instance `inst`), r in its object space; true
-// when kAnyHit and a hit was found.
-template <bool kAnyHit>
-PN_FN bool cwbvh_trace(const BvhView& bvh, const SceneView* scene, const BvhRay& r, uint32_t root, uint32_t inst,
-                       HitRecord* best, bool* found) {
-  BvhGroup stack[kCwbvhStackSize];
-  int sp = 0;
-  const uint32_t octinv = 7u - ((r.inv_d.x < 0.f ? 4u : 0u) | (r.inv_d.y < 0.f ? 2u : 0u) | (r.inv_d.z < 0.f ? 1u : 0u));
-  BvhGroup node{root, 1u << 31};  // the root as the one child of a group whose inner-node mask is empty
-  for (;;) {
-    BvhGroup tri{0u, 0u};
-    if (node.bits <= 0x00FFFFFFu) {  // a triangle group taken off the stack
-      tri = node;
-      node = BvhGroup{0u, 0u};
-    } else {
-      const uint32_t bit = bvh_highest_bit(node.bits);
-      node.bits &= ~(1u << bit);
-      const uint32_t slot = (bit - 24u) ^ octinv;
-      const uint32_t child = node.base + bvh_popcount(node.bits & ((1u << slot) - 1u) & 0xFFu);
-      if (node.bits > 0x00FFFFFFu) stack[sp++] = node;
-      uint32_t w[20];
-      bvh_load_wide(bvh.wide, child, w);
-      const uint32_t hits = cwbvh_hits(w, r, octinv, best->t);
-      node = BvhGroup{w[4], (hits & 0xFF000000u) | (w[3] >> 24)};  // child_base; the inner-node mask
-      tri = BvhGroup{w[5], hits & 0x00FFFFFFu};                   // tri_base
-    }
-    if (cwbvh_triangles<kAnyHit>(bvh, scene, r, inst, tri, node.bits > 0x00FFFFFFu, stack, &sp, best, found))
-      return true;
-    if (node.bits <= 0x00FFFFFFu) {
-      if (sp == 0) return false;
-      node = stack[--sp];
-    }
-  }
-}
-
 // Closest hit (kAnyHit false: *hit gets the nearest hit in (0, tmax)) or any hit
 // (kAnyHit true: returns at the first hit in (0, tmax), *hit is that one). `scene`
 // is read only for alpha masks (bvh.any_alpha_masked) and may be null otherwise.
@@ -346,7 +99,9 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
   if (bvh.num_items == 0) return false;
   int32_t stack[kBvhStackSize];
   int sp = 0;
-  const BvhRay r = make_bvh_ray(ray.o, ray.d);
+  int inst_sp = -1;   // stack depth at which the current instance was entered; -1: top level
+  uint32_t inst = 0;  // the current instance (index into bvh.instances) when inst_sp >= 0
+  BvhRay r = make_bvh_ray(ray.o, ray.d);
   HitRecord best;
   best.t = tmax;
   bool found = false;
@@ -366,25 +121,61 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
         ref = h0 ? n.child[0] : (h1 ? n.child[1] : kBvhPop);
       }
     }
-    if (ref != kBvhPop) {  // a top-level item
-      const uint32_t item = bvh.items[bvh_leaf_first(ref)];
-      if (item & kBvhItemSphere) {
-        const uint32_t s = item & ~kBvhItemSphere;
-        const float* c = bvh.spheres + 4 * s;
-        float t;
-        if (intersect_sphere(ray, Vec3(c[0], c[1], c[2]), c[3], 0.f, best.t, &t)) {
-          best.t = t;
-          best.instance = kSphereInstance;
-          best.prim = s;
-          best.b1 = best.b2 = 0.f;
-          found = true;
-          if (kAnyHit) break;
+    if (ref != kBvhPop) {
+      const uint32_t first = bvh_leaf_first(ref);
+      if (inst_sp < 0) {  // a top-level item
+        const uint32_t item = bvh.items[first];
+        if (item & kBvhItemSphere) {
+          const uint32_t s = item & ~kBvhItemSphere;
+          const float* c = bvh.spheres + 4 * s;
+          float t;
+          if (intersect_sphere(ray, Vec3(c[0], c[1], c[2]), c[3], 0.f, best.t, &t)) {
+            best.t = t;
+            best.instance = kSphereInstance;
+            best.prim = s;
+            best.b1 = best.b2 = 0.f;
+            found = true;
+            if (kAnyHit) break;
+          }
+        } else {  // enter the instance
+          const BvhInstance& bi = bvh.instances[item];
+          inst = item;
+          inst_sp = sp;
+          r = make_bvh_ray(bi.to_object.point(ray.o), bi.to_object.vector(ray.d));
+          ref = bi.root;
+          continue;
         }
-      } else {  // an instance: its mesh's wide BVH, in object space
-        const BvhInstance& bi = bvh.instances[item];
-        const BvhRay obj = make_bvh_ray(bi.to_object.point(ray.o), bi.to_object.vector(ray.d));
-        if (cwbvh_trace<kAnyHit>(bvh, scene, obj, uint32_t(bi.root), item, &best, &found)) break;
+      } else {  // triangles of the current instance's mesh
+        const uint32_t count = bvh_leaf_count(ref);
+        bool stop = false;
+        for (uint32_t i = 0; i < count; ++i) {
+          Vec3 p0, p1, p2;
+          uint32_t prim;
+          bvh_load_triangle(bvh.triangles, first + i, &p0, &p1, &p2, &prim);
+          float t, b1, b2;
+          if (!intersect_triangle(r.tri, p0, p1, p2, 0.f, best.t, &t, &b1, &b2)) continue;
+          if (bvh.any_alpha_masked) {
+            const BvhInstance& bi = bvh.instances[inst];
+            if (bi.alpha_masked && alpha_discards(*scene, scene->instances[bi.instance], prim, b1, b2)) continue;
+          }
+          best.t = t;
+          best.instance = bvh.instances[inst].instance;
+          best.prim = prim;
+          best.b1 = b1;
+          best.b2 = b2;
+          found = true;
+          if (kAnyHit) {
+            stop = true;
+            break;
+          }
+        }
+        if (stop) break;
       }
+    }
+    // Next entry; leave the instance once its subtree is done.
+    if (sp == inst_sp) {
+      inst_sp = -1;
+      r = make_bvh_ray(ray.o, ray.d);
     }
     if (sp == 0) break;
     ref = stack[--sp];

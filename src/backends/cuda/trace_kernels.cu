@@ -38,9 +38,7 @@ __device__ __forceinline__ Ray load_ray(const TraceRay* rays, uint32_t i, float*
   return Ray(Vec3(a.x, a.y, a.z), Vec3(b.x, b.y, b.z));
 }
 
-// No __launch_bounds__: with (256) ptxas held the closest-hit kernel to 64 registers and spilled; unbounded it takes
-// 72 (blocks of up to kMaxBlock threads still fit an SM's 65,536).
-__global__ void closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
+__global__ void __launch_bounds__(kMaxBlock) closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
                                                          uint32_t count, const uint32_t* device_count,
                                                          HitRecord* hits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -54,7 +52,7 @@ __global__ void closest_kernel(BvhView bvh, SceneView scene, const TraceRay* ray
 }
 
 // Every thread of a warp reaches the ballot; its lane 0 writes the warp's word.
-__global__ void shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
+__global__ void __launch_bounds__(kMaxBlock) shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
                                                         uint32_t count, const uint32_t* device_count,
                                                         uint32_t* bits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -85,13 +83,8 @@ unsigned blocks(uint32_t count) { return unsigned((count + block_size() - 1) / b
 
 CudaTraversal::CudaTraversal(const BvhHost& bvh) : stats_(bvh.stats) {
   view_ = bvh.view();
-  if (const char* env = std::getenv("PENUMBRA_CUDA_POSTPONE")) {  // tuning: 0 never puts triangles off
-    const int v = std::atoi(env);
-    if (v >= 0 && v <= 32) view_.postpone_lanes = uint32_t(v);
-  }
   try {
     view_.nodes = upload(bvh.nodes, &buffers_[0], &bytes_);
-    view_.wide = upload(bvh.wide, &buffers_[5], &bytes_);
     view_.triangles = upload(bvh.triangles, &buffers_[1], &bytes_);
     view_.instances = upload(bvh.instances, &buffers_[2], &bytes_);
     view_.items = upload(bvh.items, &buffers_[3], &bytes_);

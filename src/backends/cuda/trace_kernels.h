@@ -39,7 +39,7 @@ class CudaTraversal {
 
  private:
   BvhView view_;  // device pointers
-  void* buffers_[6] = {};
+  void* buffers_[5] = {};
   uint64_t bytes_ = 0;
   BvhStats stats_;
 };
