@@ -204,7 +204,7 @@ TEST(ManyLights, TemporalRestirAgreesWithPower) {
   const Scene s = parse_scene(doc, "lamp-field", ".");
   Film temporal(s.render.width, s.render.height);
   const uint32_t run = 8;
-  for (uint32_t first = 0; first < s.render.spp; first += run) render(s, 0, first, run, &temporal);
+  for (uint32_t first = 0; first < uint32_t(s.render.spp); first += run) render(s, 0, first, run, &temporal);
   std::vector<float> var = temporal.variance_of_mean();
   for (float& v : var) v *= float(run);
   CompareResult r = compare_images(power.mean(), power.variance_of_mean(), temporal.mean(), var);

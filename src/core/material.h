@@ -135,6 +135,9 @@ PN_FN Vec3 reflect(Vec3 w, Vec3 n) { return n * (2.f * dot(w, n)) - w; }
 
 // --- The BSDF -----------------------------------------------------------------
 
+// Whether a BSDF has a specular lobe: a metallic part or a coat.
+PN_FN bool bsdf_has_specular(float metal_weight, float coat_weight) { return metal_weight > 0.f || coat_weight > 0.f; }
+
 // Builds the BSDF from resolved parameters. ns: shading normal, ng: geometric
 // normal, both unit and both already on the side of wo.
 PN_FN Bsdf make_bsdf(Vec3 base_color, float metallic, float roughness, float specular, Vec3 ns, Vec3 ng) {
@@ -150,7 +153,7 @@ PN_FN Bsdf make_bsdf(Vec3 base_color, float metallic, float roughness, float spe
   b.coat_weight = f0d > 0.f ? 1.f - metallic : 0.f;
   float r = clamp(roughness, 0.f, 1.f);
   b.alpha = pn_max(kMinGgxAlpha, r * r);
-  b.has_specular = b.metal_weight > 0.f || b.coat_weight > 0.f;
+  b.has_specular = bsdf_has_specular(b.metal_weight, b.coat_weight);
   return b;
 }
 
@@ -199,7 +202,7 @@ PN_FN Bsdf unpack_bsdf(const PackedBsdf& p) {
   b.coat_weight = p.coat_weight;
   b.f0_dielectric = p.f0_dielectric;
   b.alpha = p.alpha;
-  b.has_specular = b.metal_weight > 0.f || b.coat_weight > 0.f;
+  b.has_specular = bsdf_has_specular(b.metal_weight, b.coat_weight);
   return b;
 }
 
