@@ -1079,7 +1079,8 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
             counts.append("many-spheres-direct: many-spheres with direct lighting only, max depth 1, the setting of "
                           "the ReSTIR DI paper's numbers")
         w(f"- Scenes: {', '.join(head)} ({'; '.join(counts)}) at {h['width']}x{h['height']}, max depth "
-          f"8 unless said otherwise, MIS power; ground truth {h['reference_spp']} spp selected by {h.get('reference_selection', 'power')} (solid-angle); renders at 1, 2, ..., "
+          f"8 unless said otherwise, MIS power; ground truth {h['reference_spp']} spp selected by "
+          f"{h.get('reference_selection', 'power')} (solid-angle); renders at 1, 2, ..., "
           f"{h['max_spp']} spp, {h['seeds']} seeds.")
         restir_env = next(iter(head.values())).get("restir", {})
         w("- Selection methods: " + ", ".join(f"`{s}`" for s in MANY_SELECTIONS) + ". `restir`: " +
