@@ -176,6 +176,11 @@ INSTANTIATE_TEST_SUITE_P(Builtins, Wavefront, ::testing::ValuesIn(kWavefrontCase
 // neighbours with the generalized balance heuristic: 272) is a one-line error; one that holds exactly one pixel's
 // renders, a pixel a chunk, the depth-first image; and the default pool, one path a pixel, grows to one pixel's
 // queries where the frame (here 96 pixels) has fewer pixels than that.
+// restir_shade stops after its shadow query when recording (core/reservoir.h): only the recorder may say so, or the
+// replay's result would be the placeholder's. (The bit-identity tests above hold the recorder to its queries.)
+static_assert(tracer_records_only<RecordShadowQueries>::value, "the wavefront's recorder");
+static_assert(!tracer_records_only<ReplayShadowQueries>::value, "the replay computes the result");
+
 TEST(WavefrontRestir, PoolSmallerThanOnePixelsQueriesIsAnError) {
   const Case c{"many-spheres", {"defaults.lights=50", "render.light_selection=restir", "render.restir.neighbors=16",
                                 "render.restir.radius=3", "render.restir.spatial_passes=1", "render.width=12",
