@@ -188,7 +188,8 @@ Setup prepare(const ConvergeOptions& a) {
   std::ostringstream key;
   key << std::hex
       << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(s.ref_technique) +
-               (s.ref_selection == LightSelection::Power ? "" : std::string("|") + a.reference_selection));
+               (s.ref_selection == LightSelection::Power ? std::string()
+                                                         : std::string("|") + light_selection_name(s.ref_selection)));
   const std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
   ReferencePlan& r = s.ref;
   r.key = key.str();
