@@ -66,7 +66,7 @@ LightSampleContext random_context(Rng& r, float extent = 7.f) { return {random_p
 void exhaustive(const LightBvhView& v, uint32_t node, float pmf, const LightSampleContext& ctx,
                 std::vector<double>* out) {
   if (v.nodes[node].index & kLightBvhLeaf) {
-    if (node == 0 && !(light_bvh_importance(v.nodes[0], ctx.p, ctx.n) > 0.f)) return;
+    if (node == 0 && !light_bvh_root_leaf_visible(v, ctx)) return;
     (*out)[v.nodes[node].index & ~kLightBvhLeaf] += pmf;
     return;
   }

@@ -79,28 +79,49 @@ PN_FN float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) 
   return cos_a > cos_b ? 0.f : sin_a * cos_b - cos_a * sin_b;
 }
 
+// A node as the traversal reads it: on the GPU, three 16-byte loads through the
+// read-only cache (its members read one by one compile to a load each, up to 12;
+// the loads were half of the light BVH's traversal's pressure on L1).
+PN_FN LightBvhNode load_light_bvh_node(const LightBvhNode* nodes, uint32_t i) {
+#ifdef __CUDA_ARCH__
+  const float4* q = reinterpret_cast<const float4*>(nodes + i);
+  const float4 a = __ldg(q), b = __ldg(q + 1), c = __ldg(q + 2);
+  LightBvhNode n;
+  n.lo = Vec3(a.x, a.y, a.z);
+  n.phi = a.w;
+  n.hi = Vec3(b.x, b.y, b.z);
+  n.cos_theta_o = b.w;
+  n.w = Vec3(c.x, c.y, c.z);
+  n.index = __float_as_uint(c.w);
+  return n;
+#else
+  return nodes[i];
+#endif
+}
+
 // The importance I of the header at shading point p with unit normal n.
 PN_FN float light_bvh_importance(const LightBvhNode& b, Vec3 p, Vec3 n) {
-  const Vec3 pc = (b.lo + b.hi) * 0.5f;
-  const Vec3 to_p = p - pc;
+  const Vec3 extent = b.hi - b.lo;
+  const Vec3 to_p = p - (b.lo + b.hi) * 0.5f;  // from the box's centre
   const float dist2 = length_sq(to_p);
-  const float r2 = length_sq(b.hi - b.lo) * 0.25f;  // the box's bounding sphere, squared radius
-  const Vec3 near = vmin(vmax(p, b.lo), b.hi);  // the box's nearest point
-  const float d2 = pn_max(0.5f * (dist2 + length_sq(p - near)), r2 * (1.f / 64.f));  // d >= r / 8
+  const float r2 = length_sq(extent) * 0.25f;  // the box's bounding sphere, squared radius
+  // p's distance to the box's nearest point, per axis: |to_p| - extent / 2 where that is positive.
+  const float near2 = length_sq(vmax(vabs(to_p) - extent * 0.5f, Vec3(0.f)));
+  const float d2 = pn_max(0.5f * (dist2 + near2), r2 * (1.f / 64.f));  // d >= r / 8
   if (!(d2 > 0.f)) return 0.f;
-  // Angles: theta_b (the bounding sphere seen from p; every direction when p is inside it).
-  float cos_b = -1.f, sin_b = 0.f;
-  if (dist2 > r2) {
-    const float sin2_b = r2 / dist2;
-    sin_b = std::sqrt(sin2_b);
-    cos_b = safe_sqrt(1.f - sin2_b);
-  }
-  const Vec3 wi = dist2 > 0.f ? to_p * (1.f / std::sqrt(dist2)) : Vec3(0.f, 0.f, 1.f);
+  // Inside the bounding sphere theta_b covers every direction: theta' and theta'_i are 0 (cos_p = cos_pi = 1,
+  // as the general formulas below compute it there).
+  if (!(dist2 > r2)) return b.phi / d2;
+  // Angles: theta_b (the bounding sphere seen from p).
+  const float inv_dist = pn_rsqrt(dist2);
+  const float sin2_b = r2 * inv_dist * inv_dist;
+  const float sin_b = std::sqrt(sin2_b), cos_b = safe_sqrt(1.f - sin2_b);
   // theta' = max(0, theta_w - theta_o - theta_b), against theta_e = pi / 2. Normals in every direction
   // (theta_o = pi: spheres, or lights facing every way) make theta' 0 and cos_p exactly 1, as the general
   // formula computes it; the short cut spares the traversal of many sphere lights most of its arithmetic.
   float cos_p = 1.f;
   if (b.cos_theta_o > -1.f) {
+    const Vec3 wi = to_p * inv_dist;
     const float cos_w = clamp(dot(b.w, wi), -1.f, 1.f), sin_w = safe_sqrt(1.f - cos_w * cos_w);
     const float sin_o = safe_sqrt(1.f - b.cos_theta_o * b.cos_theta_o);
     const float cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, b.cos_theta_o);
@@ -108,8 +129,8 @@ PN_FN float light_bvh_importance(const LightBvhNode& b, Vec3 p, Vec3 n) {
     cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
     if (!(cos_p > 0.f)) return 0.f;
   }
-  // theta'_i: the direction towards the box is -wi.
-  const float cos_i = clamp(-dot(n, wi), -1.f, 1.f), sin_i = safe_sqrt(1.f - cos_i * cos_i);
+  // theta'_i: the direction towards the box is -to_p.
+  const float cos_i = clamp(-dot(n, to_p) * inv_dist, -1.f, 1.f), sin_i = safe_sqrt(1.f - cos_i * cos_i);
   const float cos_pi = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
   if (!(cos_pi > 0.f)) return 0.f;
   return b.phi * cos_p * cos_pi / d2;
@@ -127,37 +148,51 @@ struct LightBvhPick {
   float pmf = 0.f;  // 0: nothing (no node has importance at p)
 };
 
-// The probability of the first child at an interior node, from its children's
-// importance; -1 when neither has any (traversal stops there).
-PN_FN float light_bvh_first_child_probability(const LightBvhView& v, uint32_t node, const LightSampleContext& ctx) {
-  const float i0 = light_bvh_importance(v.nodes[node + 1], ctx.p, ctx.n);
-  const float i1 = light_bvh_importance(v.nodes[v.nodes[node].index], ctx.p, ctx.n);
+// The probability of the first of two sibling nodes, from their importance; -1
+// when neither has any (traversal stops there).
+PN_FN float light_bvh_first_probability(const LightBvhNode& c0, const LightBvhNode& c1, const LightSampleContext& ctx) {
+  const float i0 = light_bvh_importance(c0, ctx.p, ctx.n);
+  const float i1 = light_bvh_importance(c1, ctx.p, ctx.n);
   if (!(i0 > 0.f || i1 > 0.f)) return -1.f;
   return i0 / (i0 + i1);
 }
 
-// One light, by one traversal with the uniform u.
+// The same at interior node `node`.
+PN_FN float light_bvh_first_child_probability(const LightBvhView& v, uint32_t node, const LightSampleContext& ctx) {
+  return light_bvh_first_probability(load_light_bvh_node(v.nodes, node + 1),
+                                     load_light_bvh_node(v.nodes, load_light_bvh_node(v.nodes, node).index), ctx);
+}
+
+// Whether a tree whose root is a leaf (one light) has importance at ctx: no parent checked it.
+PN_FN bool light_bvh_root_leaf_visible(const LightBvhView& v, const LightSampleContext& ctx) {
+  return light_bvh_importance(load_light_bvh_node(v.nodes, 0), ctx.p, ctx.n) > 0.f;
+}
+
+// One light, by one traversal with the uniform u. Each level reads the two
+// children (the node itself was read as a child of its parent).
 PN_FN LightBvhPick light_bvh_select(const LightBvhView& v, const LightSampleContext& ctx, float u) {
   LightBvhPick pick;
   if (!v.nodes) return pick;
-  uint32_t node = 0;
+  uint32_t node = 0, index = load_light_bvh_node(v.nodes, 0).index;
   float pmf = 1.f;
-  while (!(v.nodes[node].index & kLightBvhLeaf)) {
-    const float p0 = light_bvh_first_child_probability(v, node, ctx);
+  while (!(index & kLightBvhLeaf)) {
+    const LightBvhNode c0 = load_light_bvh_node(v.nodes, node + 1), c1 = load_light_bvh_node(v.nodes, index);
+    const float p0 = light_bvh_first_probability(c0, c1, ctx);
     if (p0 < 0.f) return pick;
     if (u < p0) {
       u = pn_min(u / p0, kOneMinusEpsilon);
       pmf *= p0;
       node = node + 1;
+      index = c0.index;
     } else {
       u = pn_min((u - p0) / (1.f - p0), kOneMinusEpsilon);
       pmf *= 1.f - p0;
-      node = v.nodes[node].index;
+      node = index;
+      index = c1.index;
     }
   }
-  // A root that is a leaf (one light) has no parent that checked it.
-  if (node == 0 && !(light_bvh_importance(v.nodes[0], ctx.p, ctx.n) > 0.f)) return pick;
-  pick.light = v.nodes[node].index & ~kLightBvhLeaf;
+  if (node == 0 && !light_bvh_root_leaf_visible(v, ctx)) return pick;
+  pick.light = index & ~kLightBvhLeaf;
   pick.pmf = pmf;
   return pick;
 }
@@ -168,20 +203,23 @@ PN_FN float light_bvh_pmf(const LightBvhView& v, const LightSampleContext& ctx, 
   if (!v.nodes) return 0.f;
   uint64_t trail = v.trails[light];
   if (trail == 0) return 0.f;
-  uint32_t node = 0;
+  uint32_t node = 0, index = load_light_bvh_node(v.nodes, 0).index;
   float pmf = 1.f;
   for (; trail > 1u; trail >>= 1) {
-    const float p0 = light_bvh_first_child_probability(v, node, ctx);
+    const LightBvhNode c0 = load_light_bvh_node(v.nodes, node + 1), c1 = load_light_bvh_node(v.nodes, index);
+    const float p0 = light_bvh_first_probability(c0, c1, ctx);
     if (p0 < 0.f) return 0.f;
     if (trail & 1u) {
       pmf *= 1.f - p0;
-      node = v.nodes[node].index;
+      node = index;
+      index = c1.index;
     } else {
       pmf *= p0;
       node = node + 1;
+      index = c0.index;
     }
   }
-  if (node == 0 && !(light_bvh_importance(v.nodes[0], ctx.p, ctx.n) > 0.f)) return 0.f;
+  if (node == 0 && !light_bvh_root_leaf_visible(v, ctx)) return 0.f;
   return pmf;
 }
 

@@ -46,6 +46,7 @@ PN_FN bool is_finite(Vec3 a) {
 }
 PN_FN Vec3 vmin(Vec3 a, Vec3 b) { return {pn_min(a.x, b.x), pn_min(a.y, b.y), pn_min(a.z, b.z)}; }
 PN_FN Vec3 vmax(Vec3 a, Vec3 b) { return {pn_max(a.x, b.x), pn_max(a.y, b.y), pn_max(a.z, b.z)}; }
+PN_FN Vec3 vabs(Vec3 a) { return {std::fabs(a.x), std::fabs(a.y), std::fabs(a.z)}; }
 
 // Orthonormal basis around a unit vector n (Duff et al. 2017, "Building an
 // Orthonormal Basis, Revisited"): branch-free apart from the sign, no NaN.
