@@ -618,9 +618,9 @@ def lab_plan(args, lab, out_dir):
     h, sw = lab["headline"], lab["sweep"]
     scenes = LAB_SCENES if not args.scene else [s for s in LAB_SCENES if s in args.scene]
     head = [Run(sc, sc, h, (), LAB_STRATEGIES, MIS_MODES, out_dir, "glossy" if sc == "glossy" else None)
-            for sc in scenes] if args.only != "sweeps" else []
+            for sc in scenes] if args.only not in ("sweeps", "params") else []
     sweeps = {}
-    if args.only != "headline":
+    if args.only not in ("headline", "params"):
         three = LAB_STRATEGIES[:3]
         sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",), three, out_dir=out_dir)
                             for r in lab["radii"]]
@@ -636,9 +636,9 @@ def lab_plan(args, lab, out_dir):
 def thesis_plan(args, preset):
     """Chapter 4's runs: (headline runs, {sweep: runs})."""
     scenes = HEADLINE if args.report_only or not args.scene else [s for s in args.scene if s in HEADLINE]
-    head = [Run(s, s, preset["headline"]) for s in scenes] if args.only != "sweeps" else []
+    head = [Run(s, s, preset["headline"]) for s in scenes] if args.only not in ("sweeps", "params") else []
     sweeps = {}
-    if args.only != "headline":
+    if args.only not in ("headline", "params"):
         sw = preset["sweep"]
         sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",)) for r in preset["radii"]]
         sweeps["distance"] = [Run(f"near-{k}", "cornell-near", sw, (f"light.center=[1.6,3.2,{BOX[2] - k * 0.15:.4f}]",))
@@ -942,6 +942,24 @@ MANY_SELECTIONS = {
 MANY_CORRELATED = {"restir-temporal"}
 MANY_STRATEGIES = ["area", "solid-angle", "projected-solid-angle"]
 MANY_SWEEP_SELECTIONS = ["power", "bvh", "ris-bvh", "restir", "restir-bvh-unshadowed"]
+# restir's parameters (--only params, on many-spheres with and without GI at the headline's size): M candidates
+# drawn by the light BVH, resampled without reuse (ris-bvh) and with unbiased pairwise reuse of unshadowed targets
+# (restir-bvh-unshadowed, the headline's most efficient restir) over p spatial passes of k neighbours. Which is
+# most efficient at equal time depends on what a candidate costs against a reuse pass on the machine; the headline
+# keeps M = 8, p = 2, k = 3. name -> (M, p, k); power and bvh are run beside them as the baselines.
+MANY_PARAMS = {**{f"ris-bvh-m{m}": (m, 0, 0) for m in (2, 4, 8)},
+               **{f"restir-bvh-unshadowed-m{m}-p{p}-k{k}": (m, p, k) for m in (2, 4, 8)
+                  for p, k in ((1, 3), (2, 3), (1, 5))}}
+MANY_PARAM_SCENES = ("many-spheres", "many-spheres-direct")
+
+
+def many_param_sets(m, p, k):
+    """The scene overrides of MANY_PARAMS' configuration (M, p, k)."""
+    sets = ["render.light_selection=restir", 'render.restir.source="bvh"', f"render.restir.candidates={m}",
+            f"render.restir.spatial_passes={p}"]
+    if p:
+        sets += ["render.restir.pairwise=true", "render.restir.visibility_reuse=false", f"render.restir.neighbors={k}"]
+    return sets
 MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-bvh": "#17becf",
                "restir-temporal": "#bcbd22", "restir-biased": "#9467bd", "ris-bvh": "#ff7f0e",
                "restir-unshadowed": "#98df8a", "restir-bvh-unshadowed": "#9edae5"}
@@ -956,6 +974,17 @@ def many_plan(args, cfg, out_dir):
     scene (sponza-lanterns optional: its model data lives in ../shared/scenes), and the lights-count sweep of
     many-spheres for each method of MANY_SWEEP_SELECTIONS."""
     head, sweeps = [], {}
+    if args.only == "params":
+        for key in MANY_PARAM_SCENES:
+            if args.scene and key not in args.scene:
+                continue
+            scene, count_key, scene_sets = MANY_SCENES[key]
+            sets = (f"{count_key}={cfg['lights']}",) + tuple(cfg.get("sets", ())) + scene_sets
+            configs = {"power": MANY_SELECTIONS["power"], "bvh": MANY_SELECTIONS["bvh"],
+                       **{name: many_param_sets(*v) for name, v in MANY_PARAMS.items()}}
+            sweeps[f"params:{key}"] = [Run(f"params-{key}-{name}", scene, cfg["headline"], sets + tuple(extra),
+                                           ("solid-angle",), ("power",), out_dir) for name, extra in configs.items()]
+        return head, sweeps
     if args.only != "sweeps":
         for key, (scene, count_key, scene_sets) in MANY_SCENES.items():
             if args.scene and key not in args.scene:
@@ -1173,6 +1202,45 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
                json.dumps({"headline": head, "sweep": sweep, "bench": bench, "preset": cfg}, indent=1))
 
 
+def write_many_params_report(args, cfg, params, out_dir):
+    """params.md: restir's parameters at equal time, a table per scene (MANY_PARAMS)."""
+    h = cfg["headline"]
+    first = next(iter(params.values()))[0]
+    info = first.get("device_info", {})
+    st = many_technique("solid-angle")
+    lines = []
+    w = lines.append
+    w("# Many lights: restir's parameters at equal time\n")
+    w(f"Generated by `python3 scripts/study.py --preset {args.preset} --part many-lights --only params` on "
+      f"{datetime.date.today().isoformat()}, penumbra commit `{first.get('git_commit', 'unknown')}`, backend "
+      f"**{first['backend']}** ({first['device']}" + "".join(f", {k} {v}" for k, v in info.items()) + ").\n")
+    w(f"many-spheres with {cfg['lights']} lights at {h['width']}x{h['height']}, solid-angle, MIS power; ground truth "
+      f"{h['reference_spp']} spp selected by {h.get('reference_selection', 'power')}; renders at 1 to {h['max_spp']} "
+      f"spp, {h['seeds']} seeds. M: candidates drawn by the light BVH; p: spatial passes; k: neighbours a pass "
+      "(pairwise MIS, unshadowed targets, one shadow ray when shading: unbiased); p = 0 is ris-bvh (no reuse). "
+      "Efficiency = 1 / (MSE x ms) at the largest spp relative to `power`; frame: the error of sample "
+      f"{h.get('frame_spp', '?')} alone, as the headline's. Both without the pixels that see a lamp.\n")
+    for key, runs in params.items():
+        scene = key.split(":", 1)[1]
+        by = {r["name"].split(f"params-{scene}-", 1)[1]: r for r in runs}
+        base = by["power"]["strategies"][st]
+        w(f"## {scene}\n")
+        w("| configuration | M | p | k | efficiency vs power | frame efficiency | ms/spp | RMSE |")
+        w("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        best = max((n for n in by if n in MANY_PARAMS), key=lambda n: by[n]["strategies"][st]["efficiency_nolight"])
+        for name, r in by.items():
+            js = r["strategies"][st]
+            m, p, k = MANY_PARAMS.get(name, ("", "", ""))
+            fr = js.get("frame", {}).get("efficiency_nolight")
+            fr0 = base.get("frame", {}).get("efficiency_nolight")
+            label = f"**`{name}`**" if name == best else f"`{name}`"
+            w(f"| {label} | {m} | {p} | {k if p else ''} | {fmt(js['efficiency_nolight'] / base['efficiency_nolight'])} | "
+              f"{fmt(fr / fr0) if fr and fr0 else 'n/a'} | {js['ms_per_spp']:.3f} | {js['points'][-1]['rmse_nolight']:.4g} |")
+        w("")
+    write_text(os.path.join(out_dir, "params.md"), "\n".join(lines) + "\n")
+    write_text(os.path.join(out_dir, "many_lights_params.json"), json.dumps({"params": params, "preset": cfg}, indent=1))
+
+
 def median_seed_slope(csv_path, technique):
     """The log-log slope of the no-lamp RMSE against spp, each spp's RMSE the median over the seeds (not their mean,
     which converge's own fit uses): one seed's rare large sample cannot flatten it, a bias in every seed can."""
@@ -1185,6 +1253,24 @@ def median_seed_slope(csv_path, technique):
     ys = [math.log(statistics.median(by_spp[n])) for n in sorted(by_spp)]
     mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
     return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
+
+
+def many_params_check(params, out_dir):
+    """--only params --check: every configuration converges (the median seed's RMSE slope, as many_check), and more
+    candidates lower ris-bvh's MSE at equal spp (fixed seeds: deterministic)."""
+    failures = []
+    st = many_technique("solid-angle")
+    for key, runs in params.items():
+        scene = key.split(":", 1)[1]
+        for r in runs:
+            slope = median_seed_slope(os.path.join(out_dir, "runs", r["name"], "measurements.csv"), st)
+            if not -0.85 <= slope <= -0.15:
+                failures.append(f"{r['name']}: slope {slope:.3f} (median of the seeds) outside [-0.85, -0.15]")
+        rmse = {r["name"]: r["strategies"][st]["points"][-1]["rmse_nolight"] for r in runs}
+        m2, m8 = rmse[f"params-{scene}-ris-bvh-m2"], rmse[f"params-{scene}-ris-bvh-m8"]
+        if not m8 < m2:
+            failures.append(f"{scene}: ris-bvh's RMSE with 8 candidates ({m8:.4g}) is not below 2's ({m2:.4g})")
+    return checks_passed("MANY-LIGHTS PARAMS CHECK", failures)
 
 
 def many_check(head, sweep, out_dir):
@@ -1217,6 +1303,11 @@ def many_check(head, sweep, out_dir):
 
 def finish_many_lights(args, cfg, out_dir, plan_, head, sweep):
     """The many-lights part's bench runs, report and (with --check) assertions. False: a check failed."""
+    if args.only == "params":
+        if sweep and not args.no_report:
+            write_many_params_report(args, cfg, sweep, out_dir)
+            log(f"study: wrote {os.path.join(out_dir, 'params.md')}")
+        return not (args.check and not many_params_check(sweep, out_dir))
     head = many_group(plan_, head)
     bench = many_bench(args, cfg, out_dir) if args.only != "headline" else []
     if (head or sweep) and not args.no_report:
@@ -1492,7 +1583,9 @@ def main():
                          "methods at equal time and the lights-count sweep (docs/results/many-lights/README.md); "
                          "denoise: raw and denoised RMSE per strategy, 1-64 spp, on the headline scenes (GPU only; "
                          "docs/results/denoise/README.md); all: the four")
-    ap.add_argument("--only", choices=["headline", "sweeps"], help="run one part only")
+    ap.add_argument("--only", choices=["headline", "sweeps", "params"],
+                    help="run one part only; params (many-lights only, not part of a default run): restir's "
+                         "candidates, spatial passes and neighbours at the headline's size (many-lights/params.md)")
     ap.add_argument("--scene", action="append", choices=sorted(set(HEADLINE + LAB_SCENES) | set(MANY_SCENES)),
                     help="run only this headline scene (repeatable): split a long study over several GPU calls, "
                          "then --report-only over the merged runs")
