@@ -1209,6 +1209,32 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
                json.dumps({"headline": head, "sweep": sweep, "bench": bench, "preset": cfg}, indent=1))
 
 
+def plot_many_params(by, base, scene, path):
+    """Efficiency relative to power against the candidates M, a line per reuse setting (p, k) and bvh's level."""
+    st = many_technique("solid-angle")
+    eff = lambda name: by[name]["strategies"][st]["efficiency_nolight"] / base["efficiency_nolight"]  # noqa: E731
+    fig, ax = plt.subplots(figsize=(5.8, 3.9))
+    reuse = sorted({(p, k) for (_, p, k) in MANY_PARAMS.values()})
+    for p, k in reuse:
+        names = sorted((m, n) for n, (m, pp, kk) in MANY_PARAMS.items() if (pp, kk) == (p, k) and n in by)
+        label = "ris-bvh (no reuse)" if p == 0 else f"restir-bvh-unshadowed, {p} pass{'es' if p > 1 else ''} of {k}"
+        ax.plot([m for m, _ in names], [eff(n) for _, n in names], "o-", label=label)
+    ax.axhline(eff("bvh"), color=MANY_COLORS["bvh"], ls="--", lw=1, label="bvh")
+    ax.axhline(1.0, color=MANY_COLORS["power"], ls=":", lw=1, label="power")
+    ax.set_xscale("log", base=2)
+    ax.set_xticks(sorted({m for (m, _, _) in MANY_PARAMS.values()}))
+    ax.xaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.set_xlabel("BVH candidates M")
+    ax.set_ylabel("efficiency vs power")
+    ax.set_title(f"{scene}: restir's parameters at equal time")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def write_many_params_report(args, cfg, params, out_dir):
     """params.md: restir's parameters at equal time, a table per scene (MANY_PARAMS)."""
     h = cfg["headline"]
@@ -1227,11 +1253,16 @@ def write_many_params_report(args, cfg, params, out_dir):
       "(pairwise MIS, unshadowed targets, one shadow ray when shading: unbiased); p = 0 is ris-bvh (no reuse). "
       "Efficiency = 1 / (MSE x ms) at the largest spp relative to `power`; frame: the error of sample "
       f"{h.get('frame_spp', '?')} alone, as the headline's. Both without the pixels that see a lamp.\n")
+    fig_dir = os.path.join(out_dir, "figures")
+    os.makedirs(fig_dir, exist_ok=True)
     for key, runs in params.items():
         scene = key.split(":", 1)[1]
         by = {r["name"].split(f"params-{scene}-", 1)[1]: r for r in runs}
         base = by["power"]["strategies"][st]
         w(f"## {scene}\n")
+        fig = f"params_{scene}.png"
+        plot_many_params(by, base, scene, os.path.join(fig_dir, fig))
+        w(f"![efficiency against M](figures/{fig})\n")
         w("| configuration | M | p | k | efficiency vs power | frame efficiency | ms/spp | RMSE |")
         w("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
         best = max((n for n in by if n in MANY_PARAMS), key=lambda n: by[n]["strategies"][st]["efficiency_nolight"])
