@@ -39,7 +39,7 @@ PN_FN T clamp(T v, T lo, T hi) { return v < lo ? lo : (v > hi ? hi : v); }
 PN_FN float sqr(float x) { return x * x; }
 // sqrt that returns 0 for slightly negative inputs caused by rounding.
 PN_FN float safe_sqrt(float x) { return std::sqrt(pn_max(0.f, x)); }
-// 1 / sqrt(x) for x > 0: one instruction on the GPU (rsqrtf, within 2 ulp), exact division of sqrt on the host.
+// 1 / sqrt(x) for x > 0: one instruction on the GPU (rsqrtf, within 2 ulp), 1 / std::sqrt on the host.
 PN_FN float pn_rsqrt(float x) {
 #ifdef __CUDA_ARCH__
   return rsqrtf(x);

@@ -80,8 +80,8 @@ PN_FN float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) 
 }
 
 // A node as the traversal reads it: on the GPU, three 16-byte loads through the
-// read-only cache (its members read one by one compile to a load each, up to 12;
-// the loads were half of the light BVH's traversal's pressure on L1).
+// read-only cache (its members read one by one compiled to a scalar load each,
+// up to 12 a child). The scene's arrays are placed at alignof(LightBvhNode).
 PN_FN LightBvhNode load_light_bvh_node(const LightBvhNode* nodes, uint32_t i) {
 #ifdef __CUDA_ARCH__
   const float4* q = reinterpret_cast<const float4*>(nodes + i);
