@@ -954,6 +954,9 @@ MANY_PARAMS = {**{f"ris-bvh-m{m}": (m, 0, 0) for m in (2, 4, 8)},
                **{f"restir-bvh-unshadowed-m{m}-p{p}-k{k}": (m, p, k) for m in (2, 4, 8)
                   for p, k in ((1, 3), (2, 3), (1, 5))}}
 MANY_PARAM_SCENES = ("many-spheres", "many-spheres-direct")
+MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-bvh": "#17becf",
+               "restir-temporal": "#bcbd22", "restir-biased": "#9467bd", "ris-bvh": "#ff7f0e",
+               "restir-unshadowed": "#98df8a", "restir-bvh-unshadowed": "#9edae5"}
 
 
 def many_param_sets(m, p, k):
@@ -963,9 +966,6 @@ def many_param_sets(m, p, k):
     if p:
         sets += ["render.restir.pairwise=true", "render.restir.visibility_reuse=false", f"render.restir.neighbors={k}"]
     return sets
-MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-bvh": "#17becf",
-               "restir-temporal": "#bcbd22", "restir-biased": "#9467bd", "ris-bvh": "#ff7f0e",
-               "restir-unshadowed": "#98df8a", "restir-bvh-unshadowed": "#9edae5"}
 
 
 def many_technique(strategy):
