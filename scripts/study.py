@@ -1637,6 +1637,15 @@ def main():
     args = ap.parse_args()
     if args.no_report:
         args.keep_runs = True
+    if args.only == "params":
+        if args.part not in ("many-lights", "all"):
+            sys.exit(f"study: --only params: restir's parameters are part of --part many-lights, not --part {args.part}")
+        if args.selection:
+            sys.exit("study: --only params runs its own configurations (MANY_PARAMS); --selection picks the "
+                     "headline's methods")
+        if args.scene and not set(args.scene) & set(MANY_PARAM_SCENES):
+            sys.exit("study: --only params runs on " + " and ".join(MANY_PARAM_SCENES) + ", not on "
+                     + ", ".join(args.scene))
     if (args.engine == "python" or args.executor == "ray") and not args.report_only:
         try:
             import penumbra  # noqa: F401
