@@ -33,6 +33,7 @@
 // (wavefront_gpu.cu).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -123,22 +124,83 @@ PN_FN uint64_t wavefront_bytes(uint32_t capacity) {
   return uint64_t(capacity) * kWavefrontBytesPerPath + uint64_t(trace_bit_words(capacity)) * 4u + 3u * 4u;
 }
 
+// --- 32-byte records -------------------------------------------------------------------------------------------
+
+// TraceRay and PrevVertex move as two 16-byte accesses on the GPU. Copied as structs of Vec3s they moved a
+// float at a time: eight 4-byte accesses, each spanning its warp's 1 KiB (ncu, session 25: three quarters of the
+// shade kernel's L2 sectors were excess ones of these).
+static_assert(sizeof(PrevVertex) == 32 && offsetof(PrevVertex, bsdf_pdf) == 24 &&
+                  offsetof(PrevVertex, light_candidates) == 28,
+              "PrevVertex is two 16-byte words: p, n.x | n.y, n.z, bsdf_pdf, light_candidates");
+
+PN_FN Ray load_trace_ray(const TraceRay* p) {
+#if defined(__CUDA_ARCH__)
+  const float4* q = reinterpret_cast<const float4*>(p);
+  const float4 a = q[0], b = q[1];
+  return Ray(Vec3(a.x, a.y, a.z), Vec3(b.x, b.y, b.z));
+#else
+  return Ray(p->o, p->d);
+#endif
+}
+
+PN_FN void store_trace_ray(TraceRay* p, const Ray& r, float tmax) {
+#if defined(__CUDA_ARCH__)
+  float4* q = reinterpret_cast<float4*>(p);
+  q[0] = make_float4(r.o.x, r.o.y, r.o.z, tmax);
+  q[1] = make_float4(r.d.x, r.d.y, r.d.z, 0.f);
+#else
+  TraceRay t;
+  t.o = r.o;
+  t.d = r.d;
+  t.tmax = tmax;
+  *p = t;
+#endif
+}
+
+PN_FN PrevVertex load_prev(const PrevVertex* p) {
+#if defined(__CUDA_ARCH__)
+  const float4* q = reinterpret_cast<const float4*>(p);
+  const float4 a = q[0], b = q[1];
+  PrevVertex v;
+  v.ctx.p = Vec3(a.x, a.y, a.z);
+  v.ctx.n = Vec3(a.w, b.x, b.y);
+  v.bsdf_pdf = b.z;
+  v.light_candidates = b.w;
+  return v;
+#else
+  return *p;
+#endif
+}
+
+PN_FN void store_prev(PrevVertex* p, const PrevVertex& v) {
+#if defined(__CUDA_ARCH__)
+  float4* q = reinterpret_cast<float4*>(p);
+  q[0] = make_float4(v.ctx.p.x, v.ctx.p.y, v.ctx.p.z, v.ctx.n.x);
+  q[1] = make_float4(v.ctx.n.y, v.ctx.n.z, v.bsdf_pdf, v.light_candidates);
+#else
+  *p = v;
+#endif
+}
+
 // --- Loading and storing a path -----------------------------------------------------------------------------
 
-PN_FN PathState load_path(const WavefrontView& w, uint32_t slot, const TraceRay& ray) {
-  const WaveSpec& wave = *w.wave;
-  const uint64_t k = wave.first_item + slot;
+// Pixel and sample index are left 0: no step reads them after start_path (restir's first vertex takes its
+// pixel from item_pixel), and the 64-bit division they cost showed in shade's profile.
+PN_FN PathState load_path(const WavefrontView& w, uint32_t slot, const TraceRay* ray) {
   PathState st;
-  st.ray = Ray(ray.o, ray.d);
+  st.ray = load_trace_ray(ray);
   st.beta = w.pool.beta[slot];
   st.L = w.pool.L[slot];
   st.rng = w.pool.rng[slot];
-  st.prev = w.pool.prev[slot];
-  st.pixel = uint32_t(k % wave.pixels);
-  st.sample_index = wave.first_sample + uint32_t(k / wave.pixels);
+  st.prev = load_prev(w.pool.prev + slot);
   st.depth = w.pool.depth[slot];
   st.active = 1;
   return st;
+}
+
+// The pixel of the item in `slot`.
+PN_FN uint32_t item_pixel(const WavefrontView& w, uint32_t slot) {
+  return uint32_t((w.wave->first_item + slot) % w.wave->pixels);
 }
 
 // What a step may have changed (the ray goes to a queue).
@@ -146,16 +208,8 @@ PN_FN void store_path(const WavefrontView& w, uint32_t slot, const PathState& st
   w.pool.beta[slot] = st.beta;
   w.pool.L[slot] = st.L;
   w.pool.rng[slot] = st.rng;
-  w.pool.prev[slot] = st.prev;
+  store_prev(w.pool.prev + slot, st.prev);
   w.pool.depth[slot] = st.depth;
-}
-
-PN_FN TraceRay trace_ray(const Ray& r, float tmax) {
-  TraceRay t;
-  t.o = r.o;
-  t.d = r.d;
-  t.tmax = tmax;
-  return t;
 }
 
 // Where pixel p's primary pass writes (restir's frame).
@@ -185,7 +239,7 @@ PN_FN void generate_camera_ray(uint32_t i, const WavefrontView& w, const Camera&
                             w.restir.pixels ? &out : nullptr);
   store_path(w, i, st);
   w.pool.rays[i] = 1;
-  w.ray[0].rays[i] = trace_ray(st.ray, kInf);
+  store_trace_ray(w.ray[0].rays + i, st.ray, kInf);
   w.ray[0].slot[i] = i;
 }
 
@@ -200,7 +254,7 @@ PN_FN void apply_shadow_result(uint32_t j, const WavefrontView& w) {
     const uint32_t slot = entry & ~kReservoirQuery;
     q.kind = ShadowKind::Reservoir;
     q.reservoir_W = w.shadow.contribution[j].x;
-    RestirPrimaryOut out = restir_primary_out(w, uint32_t((w.wave->first_item + slot) % w.wave->pixels));
+    RestirPrimaryOut out = restir_primary_out(w, item_pixel(w, slot));
     on_shadow_result(st, q, blocked, &out);
     return;
   }
@@ -223,33 +277,33 @@ template <uint32_t kFeatures = kAllFeatures>
 PN_HD void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& scene, const IntegratorSettings& s) {
   const RayQueue& in = w.ray[cur];
   const uint32_t slot = in.slot[j];
-  PathState st = load_path(w, slot, in.rays[j]);
+  PathState st = load_path(w, slot, in.rays + j);
   const HitRecord rec = w.hits[j];
   ShadowQuery q;
   if (rec.instance == kTraceMiss) {
     on_miss<kFeatures>(st, scene, s);
   } else if (w.restir.pixels && st.depth == 0) {  // restir's frame: the first vertex writes its pixel's
-    RestirPrimaryOut out = restir_primary_out(w, st.pixel);
+    RestirPrimaryOut out = restir_primary_out(w, item_pixel(w, slot));
     q = on_hit<kFeatures>(st, scene, s, rec, &out);
   } else {
     q = on_hit<kFeatures>(st, scene, s, rec);
   }
-  uint32_t rays = 0;
-  if (q.kind != ShadowKind::None) {
-    const uint32_t k = queue_push(w.shadow.count);
-    w.shadow.rays[k] = trace_ray(q.ray, q.tmax);
+  const RayQueue& out = w.ray[cur ^ 1];
+  const bool query = q.kind != ShadowKind::None, next = st.active != 0;
+  uint32_t kq = 0, kn = 0;
+  if (query) kq = queue_push(w.shadow.count);  // the compiler aggregates these per warp (a pair of pushes
+  if (next) kn = queue_push(out.count);        // aggregated by hand, both atomics in flight at once, was slower)
+  if (query) {
+    store_trace_ray(w.shadow.rays + kq, q.ray, q.tmax);
     const bool reservoir = q.kind == ShadowKind::Reservoir;
-    w.shadow.slot[k] = reservoir ? slot | kReservoirQuery : slot;
-    w.shadow.contribution[k] = reservoir ? Vec3(q.reservoir_W, 0.f, 0.f) : q.contribution;
-    ++rays;
+    w.shadow.slot[kq] = reservoir ? slot | kReservoirQuery : slot;
+    w.shadow.contribution[kq] = reservoir ? Vec3(q.reservoir_W, 0.f, 0.f) : q.contribution;
   }
-  if (st.active) {
-    const RayQueue& out = w.ray[cur ^ 1];
-    const uint32_t k = queue_push(out.count);
-    out.rays[k] = trace_ray(st.ray, kInf);
-    out.slot[k] = slot;
-    ++rays;
+  if (next) {
+    store_trace_ray(out.rays + kn, st.ray, kInf);
+    out.slot[kn] = slot;
   }
+  const uint32_t rays = uint32_t(query) + uint32_t(next);
   store_path(w, slot, st);
   if (rays) w.pool.rays[slot] += rays;
 }
@@ -310,7 +364,7 @@ struct RecordShadowQueries {
   PN_FN bool occluded(const Ray& ray, float tmax) const {
     if (n == max_rays) restir_rays_overflow();
     const uint32_t k = queue_push(queue.count);
-    queue.rays[k] = trace_ray(ray, tmax);
+    store_trace_ray(queue.rays + k, ray, tmax);
     positions[n++] = k;
     return false;
   }
