@@ -52,8 +52,20 @@ PN_FN bool bvh_box_hit(const float* xy, float zlo, float zhi, const BvhRay& r, f
   const float x0 = (xy[0] - r.o.x) * r.inv_d.x, x1 = (xy[1] - r.o.x) * r.inv_d.x;
   const float y0 = (xy[2] - r.o.y) * r.inv_d.y, y1 = (xy[3] - r.o.y) * r.inv_d.y;
   const float z0 = (zlo - r.o.z) * r.inv_d.z, z1 = (zhi - r.o.z) * r.inv_d.z;
+#if defined(__CUDA_ARCH__)
+  // Three-way integer max and min of the floats' bits, one instruction each on sm_90 (Aila and Laine's trick;
+  // session 25: Sponza's random rays 10% faster). The entry distance is clamped at 0, so a value that wins the
+  // max is non-negative and orders as its bits do; the exit distance's min may take -0.f over a negative value,
+  // which enters a box the float min would cull, never the other way round.
+  const float tn = __int_as_float(__vimax3_s32_relu(__float_as_int(pn_min(x0, x1)), __float_as_int(pn_min(y0, y1)),
+                                                    __float_as_int(pn_min(z0, z1))));
+  const float tf = pn_min(__int_as_float(__vimin3_s32(__float_as_int(pn_max(x0, x1)), __float_as_int(pn_max(y0, y1)),
+                                                      __float_as_int(pn_max(z0, z1)))),
+                          tmax);
+#else
   const float tn = pn_max(pn_max(pn_min(x0, x1), pn_min(y0, y1)), pn_max(pn_min(z0, z1), 0.f));
   const float tf = pn_min(pn_min(pn_max(x0, x1), pn_max(y0, y1)), pn_min(pn_max(z0, z1), tmax));
+#endif
   *t_near = tn;
   return tn <= tf * kWiden;
 }
