@@ -68,7 +68,7 @@ struct alignas(16) BvhInstance {
   int32_t root = 0;           // the mesh's root node (an inner node)
   uint32_t instance = 0;      // index into SceneView::instances (the HitRecord's instance)
   uint32_t alpha_masked = 0;  // 1: test hits with alpha_discards (some material of it is masked)
-  uint32_t pad = 0;
+  uint32_t identity = 0;      // 1: to_object is exactly the identity, so the world ray serves as it is
 };
 static_assert(sizeof(BvhInstance) == 64, "BvhInstance is four 16-byte reads");
 

@@ -113,6 +113,7 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
   int sp = 0;
   int inst_sp = -1;   // stack depth at which the current instance was entered; -1: top level
   uint32_t inst = 0;  // the current instance (index into bvh.instances) when inst_sp >= 0
+  bool moved = false;  // the current instance moved the ray to its object space (it is not the identity)
   BvhRay r = make_bvh_ray(ray.o, ray.d);
   HitRecord best;
   best.t = tmax;
@@ -153,7 +154,8 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
           const BvhInstance& bi = bvh.instances[item];
           inst = item;
           inst_sp = sp;
-          r = make_bvh_ray(bi.to_object.point(ray.o), bi.to_object.vector(ray.d));
+          moved = bi.identity == 0;
+          if (moved) r = make_bvh_ray(bi.to_object.point(ray.o), bi.to_object.vector(ray.d));
           ref = bi.root;
           continue;
         }
@@ -184,10 +186,11 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
         if (stop) break;
       }
     }
-    // Next entry; leave the instance once its subtree is done.
+    // Next entry; leave the instance once its subtree is done (the world ray back only if the instance moved
+    // it and entries are left: its divisions were a visible share of a short traversal).
     if (sp == inst_sp) {
       inst_sp = -1;
-      r = make_bvh_ray(ray.o, ray.d);
+      if (moved && sp > 0) r = make_bvh_ray(ray.o, ray.d);
     }
     if (sp == 0) break;
     ref = stack[--sp];
