@@ -160,6 +160,20 @@ split_spec() {
 }
 selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-pairwise,--restir-unshadowed restir:--restir-unshadowed,--restir-source=bvh,--restir-candidates=8 restir:--restir-biased restir:--restir-temporal restir:--traversal=optix restir:--megakernel,--restir-spatial=0"}
 selection_scenes=${GPU_CHECK_SELECTION_SCENES:-"many-spheres sponza-lanterns glossy"}
+# The control of a failed CPU-GPU pair NAME (CPU seed 0, GPU seed 1): the CPU rendered with seed 1; sets `same`
+# (that render against the GPU's) and `own` (against the CPU's seed 0), echoes both; fails if the render does.
+seed1_control() {
+  local name=$1
+  render "$scene" solid-angle power cpu 1 "${name}_cpu_seed1" --light-selection "$method" "${scene_args[@]}" \
+    "${extra[@]}" || return 1
+  same=$("$penumbra" compare "$out/${name}_cpu_seed1.exr" "$out/${name}_cpu_seed1_var.exr" \
+    "$out/${name}_optix.exr" "$out/${name}_optix_var.exr")
+  own=$("$penumbra" compare "$out/${name}_cpu.exr" "$out/${name}_cpu_var.exr" \
+    "$out/${name}_cpu_seed1.exr" "$out/${name}_cpu_seed1_var.exr")
+  echo "control: $same"; echo "control: $own"
+}
+image_z() { sed -n 's/.*image z \(-\{0,1\}[0-9.]*\).*/\1/p' | head -n 1; }  # a compare line's image z
+within3() { awk -v z="${1:-99}" 'BEGIN { exit !(z < 3 && z > -3) }'; }
 for scene in $selection_scenes; do
   if ! listed "$scene"; then echo "skip: $scene is not a built-in scene of this build"; continue; fi
   scene_args=()
@@ -185,34 +199,20 @@ for scene in $selection_scenes; do
         # seeds; and a last-bit difference (fast math) changes a reservoir's choice and then every later sample
         # of the chain, so the same seed does not give the same paths either. What is left to compare: the
         # image means, whose z the correlation can only inflate: |image z| < 3.
-        image_z() { sed -n 's/.*image z \(-\{0,1\}[0-9.]*\).*/\1/p' | head -n 1; }
-        within3() { awk -v z="${1:-99}" 'BEGIN { exit !(z < 3 && z > -3) }'; }
         within3 "$(image_z <"$out/${name}_optix_compare.txt")"
         st=$?
         label="$label (temporal: image means, |z| < 3)"
-        # The control where it fails, as below but by image means: the GPU within 3 of the CPU with its seed 1,
-        # and the CPU's seeds 0 and 1 themselves beyond 3 (glossy's glints: seed 0's image mean is the outlier).
-        if [[ $st != 0 ]] && render "$scene" solid-angle power cpu 1 "${name}_cpu_seed1" --light-selection "$method" \
-             "${scene_args[@]}" "${extra[@]}"; then
-          same=$("$penumbra" compare "$out/${name}_cpu_seed1.exr" "$out/${name}_cpu_seed1_var.exr" \
-            "$out/${name}_optix.exr" "$out/${name}_optix_var.exr")
-          own=$("$penumbra" compare "$out/${name}_cpu.exr" "$out/${name}_cpu_var.exr" \
-            "$out/${name}_cpu_seed1.exr" "$out/${name}_cpu_seed1_var.exr")
-          echo "control: $same"; echo "control: $own"
+        # Where it fails, the control below by image means: the GPU within 3 of the CPU with its seed 1, and the
+        # CPU's seeds 0 and 1 themselves beyond 3 (glossy's glints: seed 0's image mean is the outlier).
+        if [[ $st != 0 ]] && seed1_control "$name"; then
           within3 "$(image_z <<<"$same")" && ! within3 "$(image_z <<<"$own")" && st=0
           label="$label (control: within 3 of cpu with seed 1; the CPU's seeds 0 and 1 are not)"
         fi
-      elif [[ $st != 0 ]] && render "$scene" solid-angle power cpu 1 "${name}_cpu_seed1" --light-selection "$method" \
-           "${scene_args[@]}" "${extra[@]}"; then
+      elif [[ $st != 0 ]] && seed1_control "$name"; then
         # The control where the pair fails: the CPU with the GPU's seed. The pair passes if the GPU equals it
         # (the same paths) and the CPU's own seeds 0 and 1 fail alike: the failure is then the image's noise
         # (glossy's sun glints are heavy-tailed: per-pixel variances understate the spread of the image mean),
         # not the GPU's estimator.
-        same=$("$penumbra" compare "$out/${name}_cpu_seed1.exr" "$out/${name}_cpu_seed1_var.exr" \
-          "$out/${name}_optix.exr" "$out/${name}_optix_var.exr")
-        own=$("$penumbra" compare "$out/${name}_cpu.exr" "$out/${name}_cpu_var.exr" \
-          "$out/${name}_cpu_seed1.exr" "$out/${name}_cpu_seed1_var.exr")
-        echo "control: $same"; echo "control: $own"
         [[ $same == *PASS*"rel. diff 0.00"* && $own == *FAIL* ]] && st=0
         label="$label (control: optix == cpu with seed 1; the CPU's seeds 0 and 1 fail alike)"
       fi
