@@ -148,8 +148,8 @@ void check_scene(const Scene& scene) {
   const Affine identity;
   for (BvhInstance& bi : general.instances) {
     identities += bi.identity;
-    EXPECT_EQ(bi.identity != 0, std::equal(std::begin(bi.to_object.m), std::end(bi.to_object.m), std::begin(identity.m)))
-        << scene.source;
+    const bool is_identity = std::equal(std::begin(bi.to_object.m), std::end(bi.to_object.m), std::begin(identity.m));
+    EXPECT_EQ(bi.identity != 0, is_identity) << scene.source;
     bi.identity = 0;
   }
   if (identities > 0) {
