@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iterator>
 #include <string>
 #include <vector>
 
@@ -145,11 +144,9 @@ void check_scene(const Scene& scene) {
   // sign of zeros (a float ==).
   BvhHost general = built;
   uint32_t identities = 0;
-  const Affine identity;
   for (BvhInstance& bi : general.instances) {
     identities += bi.identity;
-    const bool is_identity = std::equal(std::begin(bi.to_object.m), std::end(bi.to_object.m), std::begin(identity.m));
-    EXPECT_EQ(bi.identity != 0, is_identity) << scene.source;
+    EXPECT_EQ(bi.identity != 0, bi.to_object.is_identity()) << scene.source;
     bi.identity = 0;
   }
   if (identities > 0) {

@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
-#include <iterator>
 #include <stdexcept>
 #include <string>
 
@@ -283,8 +282,7 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
     bi.root = mesh_root[inst.mesh];
     bi.instance = uint32_t(ii);
     bi.alpha_masked = scene.instance_alpha_masked(inst) ? 1u : 0u;
-    const Affine identity;
-    bi.identity = std::equal(std::begin(bi.to_object.m), std::end(bi.to_object.m), std::begin(identity.m)) ? 1u : 0u;
+    bi.identity = bi.to_object.is_identity() ? 1u : 0u;
     out.any_alpha_masked = out.any_alpha_masked || bi.alpha_masked;
     prims.push_back(build_primitive(lo, hi, uint32_t(out.items.size())));
     out.items.push_back(uint32_t(out.instances.size()));
