@@ -109,7 +109,7 @@ PN_FN DirectSample choose_direct_sample(const SceneView& scene, const Integrator
     }
     const SelectedLight sel = select_light(scene.selection, scene.num_lights, method, ctx, u_select);
     if (!(sel.pmf > 0.f)) continue;
-    const LightSample ls = sample_light<kFeatures>(scene, s.strategy, scene.lights[sel.index], ctx, u);
+    const LightSample ls = sample_light<kFeatures>(scene, s.strategy, load_light(scene.lights, sel.index), ctx, u);
     if (!(ls.pdf > 0.f)) continue;
     const Vec3 f = bsdf_eval<kSpecular>(bsdf, wo, ls.wi);
     if (is_black(f)) continue;
@@ -264,7 +264,7 @@ template <uint32_t kFeatures = kAllFeatures>
 PN_FN float bsdf_emission_weight(const SceneView& scene, const IntegratorSettings& s, const PrevVertex& prev,
                                  uint32_t index, Vec3 w) {
   const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), prev.ctx, index) *
-                        light_pdf<kFeatures>(scene, s.strategy, scene.lights[index], prev.ctx, w);
+                        light_pdf<kFeatures>(scene, s.strategy, load_light(scene.lights, index), prev.ctx, w);
   return mis_weight(s.mis, prev.bsdf_pdf, restir_mis_density(p_light, prev.light_candidates));
 }
 
@@ -382,7 +382,7 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
   const SurfaceHit hit = resolve_hit<kFeatures>(scene, st.ray, rec);
   // Emission, from the front of an emitting surface.
   if (hit.light >= 0 && dot(hit.n, st.ray.d) < 0.f) {
-    const Vec3 Le = light_emission<kFeatures>(scene, scene.lights[hit.light], hit.uv);
+    const Vec3 Le = light_emission<kFeatures>(scene, load_light(scene.lights, hit.light), hit.uv);
     if (depth == 0 || !nee) st.L += st.beta * Le;
     else if (mis)
       st.L += st.beta * Le * bsdf_emission_weight<kFeatures>(scene, s, st.prev, uint32_t(hit.light), st.ray.d);

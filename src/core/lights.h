@@ -23,7 +23,8 @@ namespace pn {
 
 enum class LightType : uint32_t { Sphere = 0, Quad = 1, Triangle = 2, Environment = 3 };
 
-struct Light {
+// 112 bytes, 16-aligned: the GPU reads one as seven 16-byte loads (load_light).
+struct alignas(16) Light {
   LightType type = LightType::Sphere;
   Vec3 radiance;  // L, constant over the surface (environment: its intensity scale)
   Vec3 p;         // sphere: centre; quad: corner; triangle: vertex 0
@@ -69,6 +70,23 @@ struct Light {
     return l;
   }
 };
+
+static_assert(sizeof(Light) == 112, "Light is seven 16-byte words");
+
+// Light i, copied. On the GPU as seven 16-byte loads: the strategies read fields by type, and read through the
+// array a word at a time, several times (session 25's PTX: a run of 96 scalar loads at the switch on the type).
+PN_FN Light load_light(const Light* lights, uint32_t i) {
+#if defined(__CUDA_ARCH__)
+  const float4* p = reinterpret_cast<const float4*>(lights + i);
+  float4 words[sizeof(Light) / 16];
+  for (uint32_t k = 0; k < sizeof(Light) / 16; ++k) words[k] = __ldg(p + k);
+  Light l;
+  memcpy(&l, words, sizeof(Light));
+  return l;
+#else
+  return lights[i];
+#endif
+}
 
 // Where a light is sampled from: the shading point and its unit shading normal
 // (on the side the light is sampled for). Area and solid-angle sampling use
