@@ -268,6 +268,13 @@ PN_FN float bsdf_emission_weight(const SceneView& scene, const IntegratorSetting
   return mis_weight(s.mis, prev.bsdf_pdf, restir_mis_density(p_light, prev.light_candidates));
 }
 
+// Whether a step reads PathState::prev: only for the MIS weight of emission that a
+// BSDF-sampled ray finds (bsdf_emission_weight). Without it a schedule that keeps
+// paths in memory (the wavefront) need not keep the previous vertex.
+PN_FN bool path_reads_prev(const IntegratorSettings& s) {
+  return strategy_uses_nee(s.strategy) && s.mis != Mis::None;
+}
+
 // --- The path, as a state and step functions ------------------------------------
 //
 // A path is a PathState advanced by three steps, each a function of the state

@@ -460,7 +460,7 @@ class CpuBackend final : public Backend {
     Tracer tracer{this};
     for (uint64_t k0 = 0; k0 < items; k0 += capacity) {
       hw.wave = WaveSpec{k0, uint32_t(std::min<uint64_t>(capacity, items - k0)), first_sample, pixels, frame.seed};
-      parallel_for(capacity, [&](uint32_t i) { generate_camera_ray(i, w, frame.camera); });
+      parallel_for(capacity, [&](uint32_t i) { generate_camera_ray(i, w, frame.camera, s); });
       // max_depth + 1 iterations (wavefront.h); the GPU's graph runs exactly these, so more is an error here.
       for (int it = 0, cur = 0; hw.counts[cur] > 0 || hw.counts[2] > 0; ++it, cur ^= 1) {
         if (it > s.max_depth) throw std::logic_error("wavefront: paths left after max_depth + 1 iterations");

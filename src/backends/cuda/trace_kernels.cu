@@ -15,16 +15,8 @@
 namespace pn {
 namespace {
 
-// Threads per block: 128 unless PENUMBRA_CUDA_BLOCK (32..256, a multiple of 32) says otherwise (tuning).
-constexpr int kMaxBlock = 256;
-int block_size() {
-  static const int b = [] {
-    const char* env = std::getenv("PENUMBRA_CUDA_BLOCK");
-    const int v = env ? std::atoi(env) : 128;
-    return (v >= 32 && v <= kMaxBlock && v % 32 == 0) ? v : 128;
-  }();
-  return b;
-}
+constexpr int kMaxBlock = 256;  // the kernels' launch bound; cuda_trace_block_size() is at most this
+int block_size() { return cuda_trace_block_size(); }
 
 void check(cudaError_t e, const char* what) {
   if (e != cudaSuccess)
@@ -80,6 +72,16 @@ T* upload(const std::vector<T>& v, void** slot, uint64_t* bytes) {
 unsigned blocks(uint32_t count) { return unsigned((count + block_size() - 1) / block_size()); }
 
 }  // namespace
+
+// Threads per block: 128 unless PENUMBRA_CUDA_BLOCK (32..256, a multiple of 32) says otherwise (tuning).
+int cuda_trace_block_size() {
+  static const int b = [] {
+    const char* env = std::getenv("PENUMBRA_CUDA_BLOCK");
+    const int v = env ? std::atoi(env) : 128;
+    return (v >= 32 && v <= kMaxBlock && v % 32 == 0) ? v : 128;
+  }();
+  return b;
+}
 
 CudaTraversal::CudaTraversal(const BvhHost& bvh) : stats_(bvh.stats) {
   view_ = bvh.view();

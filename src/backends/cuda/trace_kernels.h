@@ -10,6 +10,9 @@
 
 namespace pn {
 
+// Threads a block of the trace kernels (PENUMBRA_CUDA_BLOCK, 128), for kernels elsewhere that trace too.
+int cuda_trace_block_size();
+
 class CudaTraversal {
  public:
   // Uploads the BVH to the current device. Throws std::runtime_error with one line.
@@ -34,6 +37,7 @@ class CudaTraversal {
   void trace_shadow(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity, uint32_t* blocked_bits,
                     const SceneView& scene, void* stream) const;
 
+  const BvhView& device_view() const { return view_; }  // the BVH in device memory, for kernels of other stages
   uint64_t device_bytes() const { return bytes_; }
   const BvhStats& stats() const { return stats_; }
 

@@ -133,12 +133,14 @@ static_assert(sizeof(PrevVertex) == 32 && offsetof(PrevVertex, bsdf_pdf) == 24 &
                   offsetof(PrevVertex, light_candidates) == 28,
               "PrevVertex is two 16-byte words: p, n.x | n.y, n.z, bsdf_pdf, light_candidates");
 
-PN_FN Ray load_trace_ray(const TraceRay* p) {
+PN_FN Ray load_trace_ray(const TraceRay* p, float* tmax = nullptr) {
 #if defined(__CUDA_ARCH__)
   const float4* q = reinterpret_cast<const float4*>(p);
   const float4 a = q[0], b = q[1];
+  if (tmax) *tmax = a.w;
   return Ray(Vec3(a.x, a.y, a.z), Vec3(b.x, b.y, b.z));
 #else
+  if (tmax) *tmax = p->tmax;
   return Ray(p->o, p->d);
 #endif
 }
@@ -184,18 +186,27 @@ PN_FN void store_prev(PrevVertex* p, const PrevVertex& v) {
 
 // --- Loading and storing a path -----------------------------------------------------------------------------
 
-// Pixel and sample index are left 0: no step reads them after start_path (restir's first vertex takes its
-// pixel from item_pixel), and the 64-bit division they cost showed in shade's profile.
-PN_FN PathState load_path(const WavefrontView& w, uint32_t slot, const TraceRay* ray) {
+// What a step reads and writes of the pool, less than the whole PathState (shading is bound by these bytes: ~300 a
+// path and bounce, 0.6 GB a 1080p bounce). Pixel and sample index are left 0: no step reads them after start_path
+// (restir's first vertex takes its pixel from item_pixel), and the 64-bit division they cost showed in shade's
+// profile. The radiance starts at 0: a step adds to it at most once, so adding what it holds afterwards to the
+// pool's (add_radiance) is the same sum, and a path whose step adds nothing reads and writes no radiance. The
+// previous vertex moves only where a step reads it (path_reads_prev: MIS).
+PN_FN PathState load_path(const WavefrontView& w, uint32_t slot, const TraceRay* ray, bool prev) {
   PathState st;
   st.ray = load_trace_ray(ray);
   st.beta = w.pool.beta[slot];
-  st.L = w.pool.L[slot];
+  st.L = Vec3(0.f);
   st.rng = w.pool.rng[slot];
-  st.prev = load_prev(w.pool.prev + slot);
+  if (prev) st.prev = load_prev(w.pool.prev + slot);
   st.depth = w.pool.depth[slot];
   st.active = 1;
   return st;
+}
+
+// The radiance a step added (L, from 0) into the pool's; NaN and infinities go in too, as they would have.
+PN_FN void add_radiance(const WavefrontView& w, uint32_t slot, const Vec3& L) {
+  if (L.x != 0.f || L.y != 0.f || L.z != 0.f) w.pool.L[slot] = w.pool.L[slot] + L;
 }
 
 // The pixel of the item in `slot`.
@@ -203,12 +214,21 @@ PN_FN uint32_t item_pixel(const WavefrontView& w, uint32_t slot) {
   return uint32_t((w.wave->first_item + slot) % w.wave->pixels);
 }
 
-// What a step may have changed (the ray goes to a queue).
-PN_FN void store_path(const WavefrontView& w, uint32_t slot, const PathState& st) {
+// A new path's state (the ray goes to a queue); the previous vertex only where a step will read it.
+PN_FN void store_path(const WavefrontView& w, uint32_t slot, const PathState& st, bool prev) {
   w.pool.beta[slot] = st.beta;
   w.pool.L[slot] = st.L;
   w.pool.rng[slot] = st.rng;
-  store_prev(w.pool.prev + slot, st.prev);
+  if (prev) store_prev(w.pool.prev + slot, st.prev);
+  w.pool.depth[slot] = st.depth;
+}
+
+// What a step changed, after load_path (the same `prev`).
+PN_FN void store_step(const WavefrontView& w, uint32_t slot, const PathState& st, bool prev) {
+  w.pool.beta[slot] = st.beta;
+  add_radiance(w, slot, st.L);
+  w.pool.rng[slot] = st.rng;
+  if (prev) store_prev(w.pool.prev + slot, st.prev);
   w.pool.depth[slot] = st.depth;
 }
 
@@ -221,7 +241,7 @@ PN_FN RestirPrimaryOut restir_primary_out(const WavefrontView& w, uint32_t pixel
 
 // Slot i (< capacity) takes item wave.first_item + i: its camera ray into ray queue 0 at position i. Thread 0
 // also sets the queues' counts for the first iteration (no other thread of this stage reads them).
-PN_FN void generate_camera_ray(uint32_t i, const WavefrontView& w, const Camera& camera) {
+PN_FN void generate_camera_ray(uint32_t i, const WavefrontView& w, const Camera& camera, const IntegratorSettings& s) {
   const WaveSpec& wave = *w.wave;
   if (i == 0) {
     *w.ray[0].count = wave.count;
@@ -237,17 +257,17 @@ PN_FN void generate_camera_ray(uint32_t i, const WavefrontView& w, const Camera&
   PathState st = start_path(camera, int(pixel % width), int(pixel / width),
                             wave.first_sample + uint32_t(k / wave.pixels), wave.seed,
                             w.restir.pixels ? &out : nullptr);
-  store_path(w, i, st);
+  store_path(w, i, st, path_reads_prev(s));
   w.pool.rays[i] = 1;
   store_trace_ray(w.ray[0].rays + i, st.ray, kInf);
   w.ray[0].slot[i] = i;
 }
 
 // Shadow query j's answer: on_shadow_result adds its contribution to its path's radiance if the ray was clear.
-// A reservoir's query (restir's frame): its W set if the ray was clear.
-PN_FN void apply_shadow_result(uint32_t j, const WavefrontView& w) {
+// A reservoir's query (restir's frame): its W set if the ray was clear. The trace stage's blocked bits, or the
+// answer of a kernel that traces and applies at once (the cuda traversal's, wavefront_shadow.cu).
+PN_FN void apply_shadow_result(uint32_t j, const WavefrontView& w, bool blocked) {
   const uint32_t entry = w.shadow.slot[j];
-  const bool blocked = ((w.blocked_bits[j / 32u] >> (j % 32u)) & 1u) != 0u;
   PathState st;
   ShadowQuery q;
   if (entry & kReservoirQuery) {
@@ -258,11 +278,15 @@ PN_FN void apply_shadow_result(uint32_t j, const WavefrontView& w) {
     on_shadow_result(st, q, blocked, &out);
     return;
   }
-  st.L = w.pool.L[entry];
+  if (blocked) return;  // on_shadow_result would add nothing
   q.kind = ShadowKind::Radiance;
   q.contribution = w.shadow.contribution[j];
-  on_shadow_result(st, q, blocked);
-  w.pool.L[entry] = st.L;
+  on_shadow_result(st, q, blocked);  // st.L from 0, as in shade
+  add_radiance(w, entry, st.L);
+}
+
+PN_FN void apply_shadow_result(uint32_t j, const WavefrontView& w) {
+  apply_shadow_result(j, w, ((w.blocked_bits[j / 32u] >> (j % 32u)) & 1u) != 0u);
 }
 
 // Between apply and shade: the queues shade pushes to start empty (one thread).
@@ -277,7 +301,8 @@ template <uint32_t kFeatures = kAllFeatures>
 PN_HD void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& scene, const IntegratorSettings& s) {
   const RayQueue& in = w.ray[cur];
   const uint32_t slot = in.slot[j];
-  PathState st = load_path(w, slot, in.rays + j);
+  const bool prev = path_reads_prev(s);
+  PathState st = load_path(w, slot, in.rays + j, prev);
   const HitRecord rec = w.hits[j];
   ShadowQuery q;
   if (rec.instance == kTraceMiss) {
@@ -304,7 +329,7 @@ PN_HD void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
     out.slot[kn] = slot;
   }
   const uint32_t rays = uint32_t(query) + uint32_t(next);
-  store_path(w, slot, st);
+  store_step(w, slot, st, prev);
   if (rays) w.pool.rays[slot] += rays;
 }
 

@@ -13,6 +13,7 @@
 #include "backends/cuda/trace_kernels.h"
 #include "backends/optix/launch_params.h"
 #include "backends/optix/launch_sums.h"
+#include "backends/wavefront/wavefront_shadow.h"
 
 namespace pn {
 namespace {
@@ -46,7 +47,8 @@ __device__ __forceinline__ uint32_t first_index() { return blockIdx.x * blockDim
 __global__ void __launch_bounds__(kBlock) camera_kernel() {
   const WaveParams& p = WP();
   const Camera camera = p.camera;
-  for (uint32_t i = first_index(); i < p.view.capacity; i += stride()) generate_camera_ray(i, p.view, camera);
+  for (uint32_t i = first_index(); i < p.view.capacity; i += stride())
+    generate_camera_ray(i, p.view, camera, p.integrator);
 }
 
 __global__ void __launch_bounds__(kBlock) apply_kernel() {
@@ -177,6 +179,10 @@ class CudaTraceStage final : public WavefrontTraceStage {
   void shadow(void* stream) override {
     traversal_.trace_shadow(q_.shadow_rays, q_.shadow_count, q_.capacity, q_.blocked_bits, scene_, stream);
   }
+  bool shadow_apply(const WavefrontView* view, void* stream) override {
+    launch_shadow_apply(traversal_.device_view(), scene_, view, q_.capacity, stream);
+    return true;
+  }
   std::string name() const override { return "cuda"; }
 
  private:
@@ -254,13 +260,18 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
                              std::to_string(bytes_ >> 20) + " MiB, the GPU has " + std::to_string(free_bytes >> 20) +
                              " MiB free (PENUMBRA_WAVEFRONT_PATHS sets a smaller pool)");
   check(cudaMalloc(&memory_, bytes_), "allocating the path pool");
-  if (cudaMalloc(&wave_, sizeof(WaveSpec)) != cudaSuccess) {
+  if (cudaMalloc(&wave_, sizeof(WaveSpec)) != cudaSuccess ||
+      cudaMalloc(&view_device_, sizeof(WavefrontView)) != cudaSuccess) {
+    cudaFree(wave_);
     cudaFree(memory_);
     throw std::runtime_error("wavefront: out of GPU memory for the wave's parameters");
   }
   view_ = carve(static_cast<char*>(memory_), capacity_, &bytes_);
   view_.wave = static_cast<const WaveSpec*>(wave_);
-  bytes_ += sizeof(WaveSpec);
+  bytes_ += sizeof(WaveSpec) + sizeof(WavefrontView);
+  // PENUMBRA_WAVEFRONT_FUSE=0: shadow rays traced, then applied by a kernel of their own, with either traversal.
+  const char* fuse = std::getenv("PENUMBRA_WAVEFRONT_FUSE");
+  fuse_shadow_ = !(fuse && std::string(fuse) == "0");
   WavefrontTraceStage::Queues q;
   for (int k = 0; k < 2; ++k) {
     q.closest_rays[k] = view_.ray[k].rays;
@@ -277,6 +288,7 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
 WavefrontGpu::~WavefrontGpu() {
   if (exec_) cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(exec_));
   if (graph_) cudaGraphDestroy(static_cast<cudaGraph_t>(graph_));
+  cudaFree(view_device_);
   cudaFree(wave_);
   cudaFree(memory_);
 }
@@ -316,8 +328,10 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_p
     check(cudaGetLastError(), "the camera kernel");
     for (int it = 0, cur = 0; it <= max_depth; ++it, cur ^= 1) {
       trace_->closest(cur, stream);
-      trace_->shadow(stream);
-      apply_kernel<<<grid, kBlock, 0, stream>>>();
+      if (!(fuse_shadow_ && trace_->shadow_apply(view_device_, stream))) {
+        trace_->shadow(stream);
+        apply_kernel<<<grid, kBlock, 0, stream>>>();
+      }
       begin_bounce_kernel<<<1, 1, 0, stream>>>(cur ^ 1);
       switch (feature_level) {
         case optix::kFeatureLevel_basic:
@@ -413,6 +427,7 @@ void WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, ui
   p.sum_sq = static_cast<float4*>(sum_sq);
   // Pageable copies: staged before they return, ordered on the stream before the graph's kernels read them.
   check(cudaMemcpyToSymbolAsync(g_params, &p, sizeof p, 0, cudaMemcpyHostToDevice, stream), "the parameters");
+  check(cudaMemcpyAsync(view_device_, &p.view, sizeof p.view, cudaMemcpyHostToDevice, stream), "the pool's view");
   for (uint64_t k0 = 0; k0 < items; k0 += capacity_) {
     WaveSpec wave;
     wave.first_item = k0;

@@ -35,6 +35,12 @@ class WavefrontTraceStage {
   virtual void closest(int queue, void* stream) = 0;  // ray queue `queue` -> hits; stream: a cudaStream_t
   virtual void shadow(void* stream) = 0;              // the shadow queue -> blocked bits
   virtual std::string name() const = 0;               // "optix" or "cuda"
+  // The shadow queue traced and each answer applied to its path (apply_shadow_result) by one launch, `view`
+  // being the wavefront's WavefrontView in device memory; false: not offered (shadow, then the apply kernel).
+  virtual bool shadow_apply(const WavefrontView* view, void* stream) {
+    (void)view, (void)stream;
+    return false;
+  }
   // Whether closest / shadow may be recorded in a CUDA graph. optixLaunch may not: under stream capture OptiX
   // syncs on an event of its own, which fails ("Error synching on OptixPipeline event", measured on the H200),
   // so a wave with the optix stage launches its kernels directly.
@@ -94,6 +100,8 @@ class WavefrontGpu {
   uint64_t bytes_ = 0;
   void* memory_ = nullptr;     // every array of the pool, one allocation
   void* wave_ = nullptr;       // the WaveSpec in device memory
+  WavefrontView* view_device_ = nullptr;  // view_ in device memory, its RestirFrame the render call's
+  bool fuse_shadow_ = true;    // the trace stage's shadow_apply where offered (PENUMBRA_WAVEFRONT_FUSE=0: never)
   void* graph_ = nullptr;      // cudaGraph_t
   void* exec_ = nullptr;       // cudaGraphExec_t
   uint32_t graph_level_ = 0;

@@ -1,0 +1,19 @@
+// The cuda traversal's shadow stage fused with the wavefront's apply stage: one kernel traces every query of the
+// shadow queue and hands its answer to apply_shadow_result at once, with no blocked bits between two kernels.
+// Built apart from wavefront_gpu.cu, without fast math: its traversal must round as the trace kernels' do.
+//
+// This header has no CUDA types, so any C++ code may include it.
+#pragma once
+
+#include "backends/cuda/bvh_layout.h"
+#include "backends/wavefront/wavefront.h"
+
+namespace pn {
+
+// Queued on `stream` (a cudaStream_t). `bvh` and `scene` are device views (scene: alpha masks); `view` points
+// to the wavefront's WavefrontView in device memory (restir's primary pass sets its RestirFrame per render call,
+// after a CUDA graph holding this launch is recorded); `capacity` bounds the shadow queue's device count.
+void launch_shadow_apply(const BvhView& bvh, const SceneView& scene, const WavefrontView* view, uint32_t capacity,
+                         void* stream);
+
+}  // namespace pn
