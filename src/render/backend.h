@@ -36,7 +36,8 @@ using ProgressFn = std::function<void(uint64_t done, uint64_t total)>;
 // GPU time of one launch, measured with CUDA events (`render --stats`, `bench`).
 struct LaunchTiming {
   uint32_t spp = 0;           // samples per pixel the launch added
-  float trace_ms = 0.f;       // path tracing (the OptiX launch)
+  float trace_ms = 0.f;       // path tracing (the OptiX launch; with the wavefront's accumulation where one wave
+                              // holds the launch, its accumulate_ms then ~0)
   float accumulate_ms = 0.f;  // accumulation into the progressive buffers (+ tone-map when displaying)
 };
 

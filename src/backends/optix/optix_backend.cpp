@@ -192,6 +192,11 @@ class OptixBackendImpl final : public OptixBackend {
                                                                            size_t(pixels_per_thread_)));
     const unsigned launch_y = launch_2d ? unsigned(H) : 1u;
     stats_.launches.resize(launches);
+    DeviceFilm film;  // where the wavefront may add a launch it holds in one wave (no launch_accumulate then)
+    film.sum = acc_sum_.as<double>();
+    film.sum_sq = acc_sum_sq_.as<double>();
+    film.counters = counters_.as<unsigned long long>();
+    film.bad_pixels = acc_bad_.as<unsigned>();
 
     // Launch j uses event slot j % kSlots; launches run ahead of the host by at
     // most kInFlight, and the host reads each launch's times when it finishes.
@@ -218,6 +223,7 @@ class OptixBackendImpl final : public OptixBackend {
       // Ordered after the previous launch on the stream; the host copy is staged
       // before cudaMemcpyAsync returns, so `p` may change right after.
       PN_CUDA(cudaEventRecord(s.start, stream_));
+      bool in_film = false;  // the launch's samples already in the film
       if (restir && wavefront_) {
         RestirFrameBuffers b;
         b.pixels = restir_pixels_.as<RestirPixel>();
@@ -230,16 +236,18 @@ class OptixBackendImpl final : public OptixBackend {
         wavefront_->render_restir(frame, base_params_.scene, pipeline_.feature_level(), p.first_sample, b, p.sum,
                                   p.sum_sq, stream_);
       } else if (wavefront_) {
-        wavefront_->render(frame, base_params_.scene, pipeline_.feature_level(), p.first_sample, spp, p.sum, p.sum_sq, stream_);
+        in_film = wavefront_->render(frame, base_params_.scene, pipeline_.feature_level(), p.first_sample, spp, p.sum,
+                                     p.sum_sq, &film, stream_);
       } else {
         PN_CUDA(cudaMemcpyAsync(params_.as<void>(), &p, sizeof p, cudaMemcpyHostToDevice, stream_));
         PN_OPTIX(optixLaunch(pipeline_.get(), stream_, params_.dptr(), sizeof(LaunchParams), &sbt, launch_x, launch_y, 1));
       }
       PN_CUDA(cudaEventRecord(s.traced, stream_));
       accumulated_ += spp;
-      PN_CUDA(launch_accumulate(launch_sum_.as<float4>(), launch_sum_sq_.as<float4>(), pixels, acc_sum_.as<double>(),
-                                acc_sum_sq_.as<double>(), counters_.as<unsigned long long>(), acc_bad_.as<unsigned>(),
-                                props_.multiProcessorCount, stream_));
+      if (!in_film)
+        PN_CUDA(launch_accumulate(launch_sum_.as<float4>(), launch_sum_sq_.as<float4>(), pixels, acc_sum_.as<double>(),
+                                  acc_sum_sq_.as<double>(), counters_.as<unsigned long long>(), acc_bad_.as<unsigned>(),
+                                  props_.multiProcessorCount, stream_));
       PN_CUDA(cudaEventRecord(s.end, stream_));
     }
     while (collected < launches) collect(collected++);

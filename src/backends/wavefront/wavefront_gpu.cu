@@ -36,6 +36,7 @@ struct WaveParams {
   IntegratorSettings integrator;
   float4* sum = nullptr;
   float4* sum_sq = nullptr;
+  DeviceFilm film;  // film.sum set: one wave holds the launch, whose samples go straight into the film
 };
 __constant__ __align__(16) unsigned char g_params[sizeof(WaveParams)];
 
@@ -106,9 +107,36 @@ struct RestirRadianceSink {
   }
 };
 
+// A launch that one wave holds: each pixel's samples summed in floats (as into the launch sums), then added to the
+// film (as launch_accumulate adds the launch sums), with no launch sums between.
+struct FilmSink {
+  SampleSums<float> sums;
+  float rays = 0.f;
+  unsigned long long total_rays = 0, total_bad = 0;  // the thread's pixels', for add_block_counters
+  __device__ void begin(uint32_t, bool) {
+    sums = SampleSums<float>();
+    rays = 0.f;
+  }
+  __device__ void add(const Vec3& L, uint32_t path_rays) {
+    rays += float(path_rays);
+    sums.add(L);
+  }
+  __device__ void end(uint32_t pixel) {
+    const float4 s = make_float4(sums.sum[0], sums.sum[1], sums.sum[2], rays);
+    const float4 q = make_float4(sums.sum_sq[0], sums.sum_sq[1], sums.sum_sq[2], float(sums.nonfinite));
+    film_add(WP().film, pixel, s, q, &total_rays, &total_bad);
+  }
+};
+
 __global__ void __launch_bounds__(kBlock) accumulate_kernel() {
   const WavefrontView& w = WP().view;
   const uint32_t n = min(w.wave->count, w.wave->pixels);
+  if (WP().film.sum) {  // the same for every thread: the block reaches add_block_counters together
+    FilmSink sink;
+    for (uint32_t i = first_index(); i < n; i += stride()) accumulate(i, w, sink);
+    add_block_counters<kBlock>(WP().film, sink.total_rays, sink.total_bad);
+    return;
+  }
   for (uint32_t i = first_index(); i < n; i += stride()) {
     if (w.restir.pixels) {
       RestirRadianceSink sink;
@@ -272,6 +300,9 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   // PENUMBRA_WAVEFRONT_FUSE=0: shadow rays traced, then applied by a kernel of their own, with either traversal.
   const char* fuse = std::getenv("PENUMBRA_WAVEFRONT_FUSE");
   fuse_shadow_ = !(fuse && std::string(fuse) == "0");
+  // PENUMBRA_WAVEFRONT_FILM=0: every launch through the launch sums and launch_accumulate.
+  const char* film = std::getenv("PENUMBRA_WAVEFRONT_FILM");
+  film_direct_ = !(film && std::string(film) == "0");
   WavefrontTraceStage::Queues q;
   for (int k = 0; k < 2; ++k) {
     q.closest_rays[k] = view_.ray[k].rays;
@@ -351,15 +382,17 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_p
   }
 }
 
-void WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
-                          uint32_t first_sample, uint32_t spp, void* sum, void* sum_sq, void* stream) {
-  run(frame, device_scene, feature_level, first_sample, spp, RestirFrame(), sum, sum_sq, stream);
+bool WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
+                          uint32_t first_sample, uint32_t spp, void* sum, void* sum_sq, const DeviceFilm* film,
+                          void* stream) {
+  return run(frame, device_scene, feature_level, first_sample, spp, RestirFrame(), sum, sum_sq, film, stream);
 }
 
 void WavefrontGpu::render_restir(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
                                  uint32_t sample, const RestirFrameBuffers& b, void* sum, void* sum_sq,
                                  void* stream_ptr) {
-  run(frame, device_scene, feature_level, sample, 1, RestirFrame{b.pixels, b.reservoirs[0]}, sum, sum_sq, stream_ptr);
+  run(frame, device_scene, feature_level, sample, 1, RestirFrame{b.pixels, b.reservoirs[0]}, sum, sum_sq, nullptr,
+      stream_ptr);
   cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
   const IntegratorSettings& s = frame.integrator;
   const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
@@ -402,13 +435,13 @@ void WavefrontGpu::render_restir(const FrameSpec& frame, const SceneView& device
       });
 }
 
-void WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
+bool WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
                        uint32_t first_sample, uint32_t spp, const RestirFrame& restir, void* sum, void* sum_sq,
-                       void* stream_ptr) {
+                       const DeviceFilm* film, void* stream_ptr) {
   cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
   const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
   const uint64_t items = uint64_t(pixels) * spp;
-  if (items == 0) return;
+  if (items == 0) return false;
   // PENUMBRA_WAVEFRONT_GRAPH=0: launch each wave's kernels directly (to tell a graph's fault from a kernel's).
   static const bool graph_allowed = [] {
     const char* env = std::getenv("PENUMBRA_WAVEFRONT_GRAPH");
@@ -425,6 +458,9 @@ void WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, ui
   p.integrator = frame.integrator;
   p.sum = static_cast<float4*>(sum);
   p.sum_sq = static_cast<float4*>(sum_sq);
+  // One wave holding every sample of every pixel: the accumulation adds them to the film.
+  const bool into_film = film_direct_ && film && film->sum && items <= capacity_;
+  if (into_film) p.film = *film;
   // Pageable copies: staged before they return, ordered on the stream before the graph's kernels read them.
   check(cudaMemcpyToSymbolAsync(g_params, &p, sizeof p, 0, cudaMemcpyHostToDevice, stream), "the parameters");
   check(cudaMemcpyAsync(view_device_, &p.view, sizeof p.view, cudaMemcpyHostToDevice, stream), "the pool's view");
@@ -439,6 +475,7 @@ void WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, ui
     if (use_graph) check(cudaGraphLaunch(static_cast<cudaGraphExec_t>(exec_), stream), "cudaGraphLaunch");
     else enqueue(feature_level, frame.integrator.max_depth, stream);
   }
+  return into_film;
 }
 
 }  // namespace pn

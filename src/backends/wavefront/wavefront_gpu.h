@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "backends/optix/device_film.h"
 #include "backends/trace_stage.h"
 #include "backends/wavefront/wavefront.h"
 #include "render/backend.h"
@@ -71,10 +72,12 @@ class WavefrontGpu {
   // Samples [first_sample, first_sample + spp) of every pixel, as waves of at most capacity() paths, into the
   // launch sums the megakernel's raygen writes (float4 a pixel; sum: the samples' sum in xyz and the rays traced
   // in w, sum_sq: their squares in xyz and the non-finite samples in w), queued on `stream` (a cudaStream_t).
+  // Where one wave holds them all and `film` is given, they go into the film instead, as launch_accumulate would
+  // add the launch sums (the same doubles; no launch sums written), and it returns true.
   // feature_level indexes optix::kFeatureLevels (the smallest level covering the scene, as the megakernel's).
   // The graph of one wave is recorded at the first call and again where max_depth or the level changes.
-  void render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t first_sample,
-              uint32_t spp, void* sum, void* sum_sq, void* stream);
+  bool render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t first_sample,
+              uint32_t spp, void* sum, void* sum_sq, const DeviceFilm* film, void* stream);
 
   // One sample of every pixel by restir's frame passes (core/restir.h), queued on `stream`: the primary pass as
   // waves (RestirFrame: each path's first vertex writes its record and reservoir to b, its radiance less that
@@ -89,8 +92,8 @@ class WavefrontGpu {
   std::string traversal() const { return trace_->name(); }
 
  private:
-  void run(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t first_sample,
-           uint32_t spp, const RestirFrame& restir, void* sum, void* sum_sq, void* stream);
+  bool run(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t first_sample,
+           uint32_t spp, const RestirFrame& restir, void* sum, void* sum_sq, const DeviceFilm* film, void* stream);
   void record(uint32_t feature_level, int max_depth, void* stream);
   void enqueue(uint32_t feature_level, int max_depth, void* stream);
 
@@ -102,6 +105,7 @@ class WavefrontGpu {
   void* wave_ = nullptr;       // the WaveSpec in device memory
   WavefrontView* view_device_ = nullptr;  // view_ in device memory, its RestirFrame the render call's
   bool fuse_shadow_ = true;    // the trace stage's shadow_apply where offered (PENUMBRA_WAVEFRONT_FUSE=0: never)
+  bool film_direct_ = true;    // render()'s film where given (PENUMBRA_WAVEFRONT_FILM=0: never)
   void* graph_ = nullptr;      // cudaGraph_t
   void* exec_ = nullptr;       // cudaGraphExec_t
   uint32_t graph_level_ = 0;
