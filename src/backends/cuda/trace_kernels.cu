@@ -30,7 +30,8 @@ __device__ __forceinline__ Ray load_ray(const TraceRay* rays, uint32_t i, float*
   return Ray(Vec3(a.x, a.y, a.z), Vec3(b.x, b.y, b.z));
 }
 
-__global__ void __launch_bounds__(kMaxBlock) closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
+template <int kMinBlocks>
+__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks) closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
                                                          uint32_t count, const uint32_t* device_count,
                                                          HitRecord* hits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -44,7 +45,8 @@ __global__ void __launch_bounds__(kMaxBlock) closest_kernel(BvhView bvh, SceneVi
 }
 
 // Every thread of a warp reaches the ballot; its lane 0 writes the warp's word.
-__global__ void __launch_bounds__(kMaxBlock) shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
+template <int kMinBlocks>
+__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks) shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
                                                         uint32_t count, const uint32_t* device_count,
                                                         uint32_t* bits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -71,14 +73,47 @@ T* upload(const std::vector<T>& v, void** slot, uint64_t* bytes) {
 
 unsigned blocks(uint32_t count) { return unsigned((count + block_size() - 1) / block_size()); }
 
+// The kernels as compiled for cuda_trace_min_blocks() resident blocks an SM.
+template <class... A>
+void launch_closest(unsigned grid, cudaStream_t s, A... a) {
+  switch (cuda_trace_min_blocks()) {
+    case 10: closest_kernel<10><<<grid, 128, 0, s>>>(a...); break;
+    case 12: closest_kernel<12><<<grid, 128, 0, s>>>(a...); break;
+    default: closest_kernel<0><<<grid, block_size(), 0, s>>>(a...); break;
+  }
+}
+template <class... A>
+void launch_shadow(unsigned grid, cudaStream_t s, A... a) {
+  switch (cuda_trace_min_blocks()) {
+    case 10: shadow_kernel<10><<<grid, 128, 0, s>>>(a...); break;
+    case 12: shadow_kernel<12><<<grid, 128, 0, s>>>(a...); break;
+    default: shadow_kernel<0><<<grid, block_size(), 0, s>>>(a...); break;
+  }
+}
+
 }  // namespace
 
-// Threads per block: 128 unless PENUMBRA_CUDA_BLOCK (32..256, a multiple of 32) says otherwise (tuning).
+// Resident blocks of 128 threads an SM the kernels are compiled for: 10 (48 registers, a few spilled), or
+// PENUMBRA_CUDA_OCC = 0 (as many registers as they take, 64: 8 blocks) or 12 (40 registers). The traversal waits on
+// dependent node loads, and more warps hide more of that: on the H200, Sponza 10.93 -> 10.69 ms a sample at 10
+// blocks (10.70 at 12), cornell-sphere 1.934 -> 1.943 (1.99 at 12); random rays in Sponza 1.73 -> 1.67 ms closest,
+// 1.76 -> 1.68 shadow.
+int cuda_trace_min_blocks() {
+  static const int b = [] {
+    const char* env = std::getenv("PENUMBRA_CUDA_OCC");
+    const int v = env ? std::atoi(env) : 10;
+    return v == 0 || v == 10 || v == 12 ? v : 10;
+  }();
+  return b;
+}
+
+// Threads per block: 128 unless PENUMBRA_CUDA_BLOCK (32..256, a multiple of 32) says otherwise (tuning; not with
+// PENUMBRA_CUDA_OCC, whose kernels are compiled for 128).
 int cuda_trace_block_size() {
   static const int b = [] {
     const char* env = std::getenv("PENUMBRA_CUDA_BLOCK");
     const int v = env ? std::atoi(env) : 128;
-    return (v >= 32 && v <= kMaxBlock && v % 32 == 0) ? v : 128;
+    return (v >= 32 && v <= kMaxBlock && v % 32 == 0 && cuda_trace_min_blocks() == 0) ? v : 128;
   }();
   return b;
 }
@@ -105,7 +140,7 @@ void CudaTraversal::trace_closest(const TraceRay* rays, uint32_t count, HitRecor
                                   void* stream) const {
   if (count == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  closest_kernel<<<blocks(count), block_size(), 0, s>>>(view_, scene, rays, count, nullptr, hits);
+  launch_closest(blocks(count), s, view_, scene, rays, count, nullptr, hits);
   check(cudaGetLastError(), "launching the closest-hit kernel");
 }
 
@@ -113,7 +148,7 @@ void CudaTraversal::trace_shadow(const TraceRay* rays, uint32_t count, uint32_t*
                                  const SceneView& scene, void* stream) const {
   if (count == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  shadow_kernel<<<blocks(count), block_size(), 0, s>>>(view_, scene, rays, count, nullptr, blocked_bits);
+  launch_shadow(blocks(count), s, view_, scene, rays, count, nullptr, blocked_bits);
   check(cudaGetLastError(), "launching the shadow kernel");
 }
 
@@ -121,7 +156,7 @@ void CudaTraversal::trace_closest(const TraceRay* rays, const uint32_t* device_c
                                   HitRecord* hits, const SceneView& scene, void* stream) const {
   if (capacity == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  closest_kernel<<<blocks(capacity), block_size(), 0, s>>>(view_, scene, rays, capacity, device_count, hits);
+  launch_closest(blocks(capacity), s, view_, scene, rays, capacity, device_count, hits);
   check(cudaGetLastError(), "launching the closest-hit kernel");
 }
 
@@ -129,7 +164,7 @@ void CudaTraversal::trace_shadow(const TraceRay* rays, const uint32_t* device_co
                                  uint32_t* blocked_bits, const SceneView& scene, void* stream) const {
   if (capacity == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  shadow_kernel<<<blocks(capacity), block_size(), 0, s>>>(view_, scene, rays, capacity, device_count, blocked_bits);
+  launch_shadow(blocks(capacity), s, view_, scene, rays, capacity, device_count, blocked_bits);
   check(cudaGetLastError(), "launching the shadow kernel");
 }
 

@@ -12,6 +12,9 @@ namespace pn {
 
 // Threads a block of the trace kernels (PENUMBRA_CUDA_BLOCK, 128), for kernels elsewhere that trace too.
 int cuda_trace_block_size();
+// Resident blocks of 128 threads an SM the kernels are compiled for (10; PENUMBRA_CUDA_OCC: 0, as many registers
+// as they take, or 12), for kernels elsewhere that trace too.
+int cuda_trace_min_blocks();
 
 class CudaTraversal {
  public:

@@ -14,8 +14,9 @@ namespace {
 
 constexpr int kMaxBlock = 256;
 
-__global__ void __launch_bounds__(kMaxBlock) shadow_apply_kernel(BvhView bvh, SceneView scene,
-                                                              const WavefrontView* view) {
+template <int kMinBlocks>
+__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks)
+    shadow_apply_kernel(BvhView bvh, SceneView scene, const WavefrontView* view) {
   const WavefrontView& w = *view;
   const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
   if (j >= *w.shadow.count) return;
@@ -33,7 +34,12 @@ void launch_shadow_apply(const BvhView& bvh, const SceneView& scene, const Wavef
   const unsigned threads = unsigned(cuda_trace_block_size());
   const unsigned blocks = (capacity + threads - 1) / threads;
   if (blocks == 0) return;
-  shadow_apply_kernel<<<blocks, threads, 0, static_cast<cudaStream_t>(stream)>>>(bvh, scene, view);
+  cudaStream_t s = static_cast<cudaStream_t>(stream);
+  switch (cuda_trace_min_blocks()) {  // as the trace kernels are compiled (trace_kernels.h)
+    case 10: shadow_apply_kernel<10><<<blocks, threads, 0, s>>>(bvh, scene, view); break;
+    case 12: shadow_apply_kernel<12><<<blocks, threads, 0, s>>>(bvh, scene, view); break;
+    default: shadow_apply_kernel<0><<<blocks, threads, 0, s>>>(bvh, scene, view); break;
+  }
   const cudaError_t e = cudaGetLastError();
   if (e != cudaSuccess)
     throw std::runtime_error(std::string("wavefront: the shadow + apply kernel: ") + cudaGetErrorString(e));
