@@ -30,10 +30,12 @@ __device__ __forceinline__ Ray load_ray(const TraceRay* rays, uint32_t i, float*
   return Ray(Vec3(a.x, a.y, a.z), Vec3(b.x, b.y, b.z));
 }
 
+// kMinBlocks: the resident blocks of 128 an SM the launch bound asks for (cuda_trace_min_blocks); 0 asks for none
+// (up to kMaxBlock threads, registers as needed).
 template <int kMinBlocks>
-__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks) closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
-                                                         uint32_t count, const uint32_t* device_count,
-                                                         HitRecord* hits) {
+__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks)
+    closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays, uint32_t count, const uint32_t* device_count,
+                   HitRecord* hits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (device_count) count = *device_count;
   if (i >= count) return;
@@ -46,9 +48,9 @@ __global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks) clos
 
 // Every thread of a warp reaches the ballot; its lane 0 writes the warp's word.
 template <int kMinBlocks>
-__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks) shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays,
-                                                        uint32_t count, const uint32_t* device_count,
-                                                        uint32_t* bits) {
+__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks)
+    shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays, uint32_t count, const uint32_t* device_count,
+                  uint32_t* bits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (device_count) count = *device_count;
   if ((i & ~31u) >= count) return;  // a whole warp past the end: no word of its to write
@@ -76,19 +78,15 @@ unsigned blocks(uint32_t count) { return unsigned((count + block_size() - 1) / b
 // The kernels as compiled for cuda_trace_min_blocks() resident blocks an SM.
 template <class... A>
 void launch_closest(unsigned grid, cudaStream_t s, A... a) {
-  switch (cuda_trace_min_blocks()) {
-    case 10: closest_kernel<10><<<grid, 128, 0, s>>>(a...); break;
-    case 12: closest_kernel<12><<<grid, 128, 0, s>>>(a...); break;
-    default: closest_kernel<0><<<grid, block_size(), 0, s>>>(a...); break;
-  }
+  with_trace_min_blocks([&](auto b) {
+    closest_kernel<decltype(b)::value><<<grid, block_size(), 0, s>>>(a...);
+  });
 }
 template <class... A>
 void launch_shadow(unsigned grid, cudaStream_t s, A... a) {
-  switch (cuda_trace_min_blocks()) {
-    case 10: shadow_kernel<10><<<grid, 128, 0, s>>>(a...); break;
-    case 12: shadow_kernel<12><<<grid, 128, 0, s>>>(a...); break;
-    default: shadow_kernel<0><<<grid, block_size(), 0, s>>>(a...); break;
-  }
+  with_trace_min_blocks([&](auto b) {
+    shadow_kernel<decltype(b)::value><<<grid, block_size(), 0, s>>>(a...);
+  });
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 
 #include "backends/cuda/bvh_build.h"
 #include "backends/trace_stage.h"
@@ -15,6 +16,16 @@ int cuda_trace_block_size();
 // Resident blocks of 128 threads an SM the kernels are compiled for (10; PENUMBRA_CUDA_OCC: 0, as many registers
 // as they take, or 12), for kernels elsewhere that trace too.
 int cuda_trace_min_blocks();
+// Calls f(std::integral_constant<int, B>()) for B = cuda_trace_min_blocks(): a kernel template on B launched inside
+// f (with cuda_trace_block_size() threads, 128 for B > 0) is the variant the run asks for.
+template <class F>
+void with_trace_min_blocks(F&& f) {
+  switch (cuda_trace_min_blocks()) {
+    case 10: f(std::integral_constant<int, 10>()); break;
+    case 12: f(std::integral_constant<int, 12>()); break;
+    default: f(std::integral_constant<int, 0>()); break;
+  }
+}
 
 class CudaTraversal {
  public:

@@ -35,11 +35,10 @@ void launch_shadow_apply(const BvhView& bvh, const SceneView& scene, const Wavef
   const unsigned blocks = (capacity + threads - 1) / threads;
   if (blocks == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  switch (cuda_trace_min_blocks()) {  // as the trace kernels are compiled (trace_kernels.h)
-    case 10: shadow_apply_kernel<10><<<blocks, threads, 0, s>>>(bvh, scene, view); break;
-    case 12: shadow_apply_kernel<12><<<blocks, threads, 0, s>>>(bvh, scene, view); break;
-    default: shadow_apply_kernel<0><<<blocks, threads, 0, s>>>(bvh, scene, view); break;
-  }
+  // Compiled for the trace kernels' occupancy (trace_kernels.h).
+  with_trace_min_blocks([&](auto b) {
+    shadow_apply_kernel<decltype(b)::value><<<blocks, threads, 0, s>>>(bvh, scene, view);
+  });
   const cudaError_t e = cudaGetLastError();
   if (e != cudaSuccess)
     throw std::runtime_error(std::string("wavefront: the shadow + apply kernel: ") + cudaGetErrorString(e));
