@@ -189,8 +189,10 @@ PN_FN void store_prev(PrevVertex* p, const PrevVertex& v) {
 // What a step reads and writes of the pool, less than the whole PathState (shading is bound by these bytes: ~300 a
 // path and bounce, 0.6 GB a 1080p bounce). Pixel and sample index are left 0: no step reads them after start_path
 // (restir's first vertex takes its pixel from item_pixel), and the 64-bit division they cost showed in shade's
-// profile. The radiance starts at 0: a step adds to it at most once, so adding what it holds afterwards to the
-// pool's (add_radiance) is the same sum, and a path whose step adds nothing reads and writes no radiance. The
+// profile. The radiance starts at 0: a step adds to it at most once (on_hit without a tracer of its own, on_miss,
+// on_shadow_result), so adding what it holds afterwards to the pool's (add_radiance) is the same sum, and a path
+// whose step adds nothing reads and writes no radiance (tests/test_path_schedule.cpp: the same image bit for bit
+// as the depth-first driver's). The
 // previous vertex moves only where a step reads it (path_reads_prev: MIS).
 PN_FN PathState load_path(const WavefrontView& w, uint32_t slot, const TraceRay* ray, bool prev) {
   PathState st;
