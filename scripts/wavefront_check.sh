@@ -13,9 +13,12 @@
 #      traversal; and CPU vs wavefront (PASS); on WAVEFRONT_CHECK_SCENES x techniques, restir without spatial
 #      reuse too;
 #   3. independent seeds (CPU 0, wavefront 1): `penumbra compare` PASS (the z-test of gpu_check.sh);
-#   4. waves: a pool of 5,000 paths (PENUMBRA_WAVEFRONT_PATHS: many waves a launch, pixels cut anywhere) renders
-#      the default pool's image byte for byte (the accumulation sums each pixel's samples in order), and
-#      restir with spatial reuse (its frame passes, in the wavefront since session 20) agrees with the CPU;
+#   4. waves: a pool of 5,000 paths (PENUMBRA_WAVEFRONT_PATHS: many waves a launch, pixels cut anywhere, through
+#      the launch sums) renders the default pool's image (one wave a launch: straight into the film) byte for byte
+#      (the accumulation sums each pixel's samples in order); the cuda stage's shadow rays traced and applied in
+#      one kernel == in two (PENUMBRA_WAVEFRONT_FUSE=0, same paths), its trace kernels at 10 resident blocks ==
+#      at 8 (PENUMBRA_CUDA_OCC=0, byte for byte); restir with spatial reuse (its frame passes, in the wavefront
+#      since session 20) agrees with the CPU;
 #   5. compute-sanitizer --tool memcheck on short wavefront renders, both traversals: 0 errors;
 #   6. `penumbra bench` at 1920x1080, 1 spp a launch, depth 8, solid-angle: megakernel, wavefront optix,
 #      wavefront cuda on cornell-sphere and sponza (the targets: <= 2.0 and <= 8 ms per sample),
@@ -127,6 +130,20 @@ for tr in optix cuda; do
     record "waves: renders ($tr)" 1
   fi
 done
+# The measurement knobs change how the cuda stage runs, not what it computes: the shadow stage in two kernels
+# (PENUMBRA_WAVEFRONT_FUSE=0: traced, then applied) and the trace kernels at 64 registers (PENUMBRA_CUDA_OCC=0).
+n=cornell-sphere_waves_cuda
+if [[ -f $out/${n}_big.exr ]]; then
+  PENUMBRA_WAVEFRONT_FUSE=0 render "${n}_unfused" cornell-sphere solid-angle power 7 --backend optix --wavefront \
+    --traversal cuda && same_paths "${n}_big" "${n}_unfused" "shadow rays traced and applied in one kernel == in two"
+  if PENUMBRA_CUDA_OCC=0 render "${n}_occ0" cornell-sphere solid-angle power 7 --backend optix --wavefront \
+    --traversal cuda; then
+    cmp -s "$out/${n}_big.exr" "$out/${n}_occ0.exr"
+    record "trace kernels at 10 resident blocks == at 8 (64 registers), byte for byte" $?
+  else
+    record "trace kernels at 8 resident blocks: render" 1
+  fi
+fi
 if listed many-spheres; then
   render restir_passes_cpu many-spheres solid-angle power 0 --backend cpu --light-selection restir \
     --set defaults.lights=200 &&
