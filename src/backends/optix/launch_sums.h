@@ -25,10 +25,16 @@ __device__ __forceinline__ SampleSums<float> load_launch_sums(const float4* sum,
   return a;
 }
 
+// A pixel's sums as its two launch-sum words.
+__device__ __forceinline__ void launch_sums_words(const SampleSums<float>& a, float rays, float4* sum,
+                                                  float4* sum_sq) {
+  *sum = make_float4(a.sum[0], a.sum[1], a.sum[2], rays);
+  *sum_sq = make_float4(a.sum_sq[0], a.sum_sq[1], a.sum_sq[2], float(a.nonfinite));
+}
+
 __device__ __forceinline__ void store_launch_sums(float4* sum, float4* sum_sq, uint32_t pixel,
                                                   const SampleSums<float>& a, float rays) {
-  sum[pixel] = make_float4(a.sum[0], a.sum[1], a.sum[2], rays);
-  sum_sq[pixel] = make_float4(a.sum_sq[0], a.sum_sq[1], a.sum_sq[2], float(a.nonfinite));
+  launch_sums_words(a, rays, sum + pixel, sum_sq + pixel);
 }
 
 // A pixel's launch sums into the film (the pixel's own doubles; the counts into rays and bad, for

@@ -107,23 +107,15 @@ struct RestirRadianceSink {
   }
 };
 
-// A launch that one wave holds: each pixel's samples summed in floats (as into the launch sums), then added to the
-// film (as launch_accumulate adds the launch sums), with no launch sums between.
-struct FilmSink {
-  SampleSums<float> sums;
-  float rays = 0.f;
+// A launch that one wave holds: each pixel's samples summed in floats as into the launch sums (every pixel's first
+// sample of the launch is in the wave), then added to the film as launch_accumulate adds the launch sums, with no
+// launch sums between.
+struct FilmSink : LaunchSink {
   unsigned long long total_rays = 0, total_bad = 0;  // the thread's pixels', for add_block_counters
-  __device__ void begin(uint32_t, bool) {
-    sums = SampleSums<float>();
-    rays = 0.f;
-  }
-  __device__ void add(const Vec3& L, uint32_t path_rays) {
-    rays += float(path_rays);
-    sums.add(L);
-  }
+  __device__ void begin(uint32_t pixel, bool) { LaunchSink::begin(pixel, true); }
   __device__ void end(uint32_t pixel) {
-    const float4 s = make_float4(sums.sum[0], sums.sum[1], sums.sum[2], rays);
-    const float4 q = make_float4(sums.sum_sq[0], sums.sum_sq[1], sums.sum_sq[2], float(sums.nonfinite));
+    float4 s, q;
+    launch_sums_words(sums, rays, &s, &q);
     film_add(WP().film, pixel, s, q, &total_rays, &total_bad);
   }
 };
