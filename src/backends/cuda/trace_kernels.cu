@@ -15,7 +15,6 @@
 namespace pn {
 namespace {
 
-constexpr int kMaxBlock = 256;  // the kernels' launch bound; cuda_trace_block_size() is at most this
 int block_size() { return cuda_trace_block_size(); }
 
 void check(cudaError_t e, const char* what) {
@@ -30,10 +29,10 @@ __device__ __forceinline__ Ray load_ray(const TraceRay* rays, uint32_t i, float*
   return Ray(Vec3(a.x, a.y, a.z), Vec3(b.x, b.y, b.z));
 }
 
-// kMinBlocks: the resident blocks of 128 an SM the launch bound asks for (cuda_trace_min_blocks); 0 asks for none
-// (up to kMaxBlock threads, registers as needed).
+// kMinBlocks: the resident blocks an SM the launch bound asks for (cuda_trace_min_blocks); 0 asks for none
+// (registers as needed).
 template <int kMinBlocks>
-__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks)
+__global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks)
     closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays, uint32_t count, const uint32_t* device_count,
                    HitRecord* hits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -48,7 +47,7 @@ __global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks)
 
 // Every thread of a warp reaches the ballot; its lane 0 writes the warp's word.
 template <int kMinBlocks>
-__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks)
+__global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks)
     shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays, uint32_t count, const uint32_t* device_count,
                   uint32_t* bits) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -99,8 +98,10 @@ void launch_shadow(unsigned grid, cudaStream_t s, A... a) {
 int cuda_trace_min_blocks() {
   static const int b = [] {
     const char* env = std::getenv("PENUMBRA_CUDA_OCC");
-    const int v = env ? std::atoi(env) : 10;
-    return v == 0 || v == 10 || v == 12 ? v : 10;
+    if (!env) return 10;
+    const std::string v = env;
+    if (v == "0" || v == "10" || v == "12") return std::stoi(v);
+    throw std::runtime_error("PENUMBRA_CUDA_OCC must be 0, 10 or 12 (resident blocks an SM), not '" + v + "'");
   }();
   return b;
 }
@@ -111,12 +112,13 @@ int cuda_trace_block_size() {
   static const int b = [] {
     const char* env = std::getenv("PENUMBRA_CUDA_BLOCK");
     const int v = env ? std::atoi(env) : 128;
-    return (v >= 32 && v <= kMaxBlock && v % 32 == 0 && cuda_trace_min_blocks() == 0) ? v : 128;
+    return (v >= 32 && v <= cuda_trace_max_threads(0) && v % 32 == 0 && cuda_trace_min_blocks() == 0) ? v : 128;
   }();
   return b;
 }
 
 CudaTraversal::CudaTraversal(const BvhHost& bvh) : stats_(bvh.stats) {
+  cuda_trace_block_size();  // reads PENUMBRA_CUDA_OCC and _BLOCK now: a bad value stops here, before any launch
   view_ = bvh.view();
   try {
     view_.nodes = upload(bvh.nodes, &buffers_[0], &bytes_);

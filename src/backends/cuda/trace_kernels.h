@@ -11,10 +11,13 @@
 
 namespace pn {
 
+// The trace kernels' launch bound, threads a block, where they are compiled for `min_blocks` resident blocks an SM
+// (cuda_trace_min_blocks): 128 where that is above 0, else the most PENUMBRA_CUDA_BLOCK may ask for.
+constexpr int cuda_trace_max_threads(int min_blocks) { return min_blocks ? 128 : 256; }
 // Threads a block of the trace kernels (PENUMBRA_CUDA_BLOCK, 128), for kernels elsewhere that trace too.
 int cuda_trace_block_size();
 // Resident blocks of 128 threads an SM the kernels are compiled for (10; PENUMBRA_CUDA_OCC: 0, as many registers
-// as they take, or 12), for kernels elsewhere that trace too.
+// as they take, or 12; another value is an error naming the variable), for kernels elsewhere that trace too.
 int cuda_trace_min_blocks();
 // Calls f(std::integral_constant<int, B>()) for B = cuda_trace_min_blocks(): a kernel template on B launched inside
 // f (with cuda_trace_block_size() threads, 128 for B > 0) is the variant the run asks for.

@@ -12,10 +12,8 @@
 namespace pn {
 namespace {
 
-constexpr int kMaxBlock = 256;
-
 template <int kMinBlocks>
-__global__ void __launch_bounds__(kMinBlocks ? 128 : kMaxBlock, kMinBlocks)
+__global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks)
     shadow_apply_kernel(BvhView bvh, SceneView scene, const WavefrontView* view) {
   const WavefrontView& w = *view;
   const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
