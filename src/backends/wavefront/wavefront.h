@@ -216,19 +216,10 @@ PN_FN uint32_t item_pixel(const WavefrontView& w, uint32_t slot) {
   return uint32_t((w.wave->first_item + slot) % w.wave->pixels);
 }
 
-// A new path's state (the ray goes to a queue); the previous vertex only where a step will read it.
-PN_FN void store_path(const WavefrontView& w, uint32_t slot, const PathState& st, bool prev) {
+// The state a path keeps in the pool besides its radiance (the ray goes to a queue); the previous vertex only
+// where a step will read it (path_reads_prev).
+PN_FN void store_state(const WavefrontView& w, uint32_t slot, const PathState& st, bool prev) {
   w.pool.beta[slot] = st.beta;
-  w.pool.L[slot] = st.L;
-  w.pool.rng[slot] = st.rng;
-  if (prev) store_prev(w.pool.prev + slot, st.prev);
-  w.pool.depth[slot] = st.depth;
-}
-
-// What a step changed, after load_path (the same `prev`).
-PN_FN void store_step(const WavefrontView& w, uint32_t slot, const PathState& st, bool prev) {
-  w.pool.beta[slot] = st.beta;
-  add_radiance(w, slot, st.L);
   w.pool.rng[slot] = st.rng;
   if (prev) store_prev(w.pool.prev + slot, st.prev);
   w.pool.depth[slot] = st.depth;
@@ -259,7 +250,8 @@ PN_FN void generate_camera_ray(uint32_t i, const WavefrontView& w, const Camera&
   PathState st = start_path(camera, int(pixel % width), int(pixel / width),
                             wave.first_sample + uint32_t(k / wave.pixels), wave.seed,
                             w.restir.pixels ? &out : nullptr);
-  store_path(w, i, st, path_reads_prev(s));
+  store_state(w, i, st, path_reads_prev(s));
+  w.pool.L[i] = st.L;
   w.pool.rays[i] = 1;
   store_trace_ray(w.ray[0].rays + i, st.ray, kInf);
   w.ray[0].slot[i] = i;
@@ -331,7 +323,8 @@ PN_HD void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
     out.slot[kn] = slot;
   }
   const uint32_t rays = uint32_t(query) + uint32_t(next);
-  store_step(w, slot, st, prev);
+  store_state(w, slot, st, prev);
+  add_radiance(w, slot, st.L);
   if (rays) w.pool.rays[slot] += rays;
 }
 
