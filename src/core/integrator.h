@@ -275,6 +275,17 @@ PN_FN bool path_reads_prev(const IntegratorSettings& s) {
   return strategy_uses_nee(s.strategy) && s.mis != Mis::None;
 }
 
+// Whether the vertex a path ends at (depth == max_depth) can add radiance: it adds only the emission its ray
+// finds, an emitter's or the escaped radiance, and next-event estimation without MIS leaves that to the light
+// samples (all of it where the environment is a light or the background is black). Where it cannot, the ray to
+// it is not traced: the same estimate, one ray a path fewer.
+template <uint32_t kFeatures = kAllFeatures>
+PN_FN bool last_vertex_adds(const SceneView& scene, const IntegratorSettings& s) {
+  if (!strategy_uses_nee(s.strategy) || s.mis != Mis::None) return true;
+  const bool environment = (kFeatures & kFeatureEnvironment) && scene.environment.present();
+  return scene.environment_light < 0 && (environment || !is_black(scene.background));
+}
+
 // --- The path, as a state and step functions ------------------------------------
 //
 // A path is a PathState advanced by three steps, each a function of the state
@@ -426,7 +437,8 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
     }
   }
 
-  // Continue the path by sampling the BSDF.
+  // Continue the path by sampling the BSDF, unless the vertex it would find adds nothing.
+  if (depth + 1 == s.max_depth && !last_vertex_adds<kFeatures>(scene, s)) return q;
   float u_lobe = rng.uniform();
   BsdfSample bs = bsdf_sample<(kFeatures & kFeatureSpecular) != 0>(bsdf, wo, u_lobe, rng.uniform2());
   if (!(bs.pdf > 0.f)) return q;
