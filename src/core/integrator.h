@@ -437,11 +437,11 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
     }
   }
 
-  // Continue the path by sampling the BSDF, unless the vertex it would find adds nothing.
-  if (depth + 1 == s.max_depth && !last_vertex_adds<kFeatures>(scene, s)) return q;
+  // Continue the path by sampling the BSDF.
   float u_lobe = rng.uniform();
   BsdfSample bs = bsdf_sample<(kFeatures & kFeatureSpecular) != 0>(bsdf, wo, u_lobe, rng.uniform2());
   if (!(bs.pdf > 0.f)) return q;
+  if (depth + 1 == s.max_depth && !last_vertex_adds<kFeatures>(scene, s)) return q;  // the vertex it finds adds nothing
   st.beta *= bs.weight;
   st.prev.ctx = LightSampleContext{hit.p, bsdf.frame.n};
   st.prev.bsdf_pdf = bs.pdf;
