@@ -2,7 +2,7 @@
 # python_gpu_check.sh, multi_gpu_check.sh), sourced by them:
 #   record NAME STATUS     prints NAME with PASS (STATUS 0) or FAIL, and remembers it
 #   finish_checks TITLE    prints every verdict and "TITLE: PASS (N checks)" or "TITLE: FAIL";
-#                          returns 0 only if every check passed
+#                          returns 0 only if every check passed and there was at least one
 #   gpu_build DIR TITLE [TARGET]  configures (Release, CMAKE_CUDA_ARCHITECTURES=90, OptiX_ROOT from the
 #                          environment or .optix/) and builds DIR; on failure prints "TITLE: FAIL" and exits
 #   check_build TITLE BUILD_DIR OUT  sets build (BUILD_DIR, or build-gpu-check built by gpu_build when
@@ -18,11 +18,11 @@ record() {
 finish_checks() {
   local i
   for i in "${!names[@]}"; do printf '  %-4s %s\n' "${verdicts[$i]}" "${names[$i]}"; done
-  if [[ $failed -eq 0 ]]; then
+  if [[ $failed -eq 0 && ${#names[@]} -gt 0 ]]; then
     echo "$1: PASS (${#names[@]} checks)"
     return 0
   fi
-  echo "$1: FAIL"
+  [[ ${#names[@]} -eq 0 ]] && echo "$1: FAIL (no checks ran)" || echo "$1: FAIL"
   return 1
 }
 gpu_build() {

@@ -48,7 +48,9 @@
 # GPU_CHECK_MEMCHECK_SCENES (default cornell-sphere, polygon-near and the real scenes),
 # GPU_CHECK_SCENES (default: every built-in scene), GPU_CHECK_TECHNIQUES,
 # GPU_CHECK_SELECTIONS, GPU_CHECK_SELECTION_SCENES,
-# GPU_CHECK_UNIT_TESTS=0 (skip ctest),
+# GPU_CHECK_UNIT_TESTS=0 (skip ctest), GPU_CHECK_STEPS (which of the steps 1-5 to run, default
+# "1 2 3 4 5"; each step prints its seconds: on the H200 the whole check takes ~12 minutes, over a device call's
+# 10, so run it as GPU_CHECK_STEPS="1 2" and then "3 4 5"),
 # OptiX_ROOT, PENUMBRA_SCENES (where sponza/ and models/ are: scene/scene.h).
 set -uo pipefail
 
@@ -62,11 +64,17 @@ real_scenes=${GPU_CHECK_REAL_SCENES:-glossy sponza}
 source "$root/scripts/check_record.sh"  # record, finish_checks, gpu_build, check_build
 
 check_build gpu_check "$build" "${GPU_CHECK_OUT:-}"  # sets build, penumbra, out
+steps=" ${GPU_CHECK_STEPS:-1 2 3 4 5} "
+want() { [[ $steps == *" $1 "* ]] || { echo "== step $1 skipped (GPU_CHECK_STEPS)"; return 1; }; }
+step_started=$SECONDS
+step_done() { echo "== step $1: $((SECONDS - step_started)) s"; step_started=$SECONDS; }
 echo "== $("$penumbra" render cornell-sphere --backend optix --width 8 --height 8 --spp 1 -o "$out/probe.exr" 2>&1 | head -n 1)"
 
 # 1. Unit tests.
 echo "== unit tests"
-if [[ ${GPU_CHECK_UNIT_TESTS:-1} == 0 ]]; then
+if ! want 1; then
+  :
+elif [[ ${GPU_CHECK_UNIT_TESTS:-1} == 0 ]]; then
   echo "skipped (GPU_CHECK_UNIT_TESTS=0)"
 elif [[ -f $build/CTestTestfile.cmake ]]; then
   ctest --test-dir "$build" --output-on-failure -j "$(nproc)" >"$out/ctest.log" 2>&1
@@ -77,6 +85,7 @@ else
   echo "no tests in $build (PENUMBRA_TESTS=OFF?)"
   record "unit tests (ctest): none built" 1
 fi
+step_done 1
 
 # 2. CPU and GPU images: every built-in scene, every technique (strategy x MIS mode).
 echo "== CPU vs GPU at ${width}x${height}, $spp spp"
@@ -101,6 +110,8 @@ for scene in $real_scenes; do
   else echo "skip: $scene is not a built-in scene of this build (penumbra scenes does not list it)"; fi
 done
 techniques=${GPU_CHECK_TECHNIQUES:-"area:none area:balance area:power solid-angle:none solid-angle:balance solid-angle:power projected-solid-angle:none projected-solid-angle:balance projected-solid-angle:power bsdf:none"}
+first=$(echo "$scenes" | head -n 1)
+if want 2; then
 for scene in $scenes; do
   for t in $techniques; do
     strategy=${t%%:*} mis=${t##*:}
@@ -120,7 +131,6 @@ for scene in $scenes; do
   done
 done
 # Same seed: the GPU traces the very paths the CPU traced (same RNG streams).
-first=$(echo "$scenes" | head -n 1)
 for st in "$first:solid-angle:none" "$first:projected-solid-angle:power" "polygon-near:solid-angle:power" \
           "cornell-quad:projected-solid-angle:balance" $(for r in "${present_real[@]}"; do echo "$r:solid-angle:power"; done); do
   IFS=: read -r scene strategy mis <<<"$st"
@@ -137,8 +147,21 @@ for st in "$first:solid-angle:none" "$first:projected-solid-angle:power" "polygo
   fi
 done
 
+fi
+step_done 2
+
+# method[:extra args, comma-separated]: the name is the spec with ':' and ',' and '=' made '_'. split_spec sets
+# $method and the array extra from one.
+split_spec() {
+  method=${1%%:*}
+  extra=()
+  [[ $1 == *:* ]] && IFS=, read -r -a extra <<<"${1#*:}"
+  return 0
+}
+
 # 3. Light selection: every method, CPU against GPU (solid-angle, MIS power).
 echo "== light selection: CPU vs GPU"
+if want 3; then
 # restir's reuse has no megakernel path (core/restir.h): --megakernel must say so in one line and exit non-zero,
 # never hang (its OptiX passes, removed, hung with the generalized balance heuristic).
 if listed many-spheres; then
@@ -150,14 +173,6 @@ if listed many-spheres; then
      ! -e "$out/megakernel_restir.exr" ]]
   record "many-spheres restir --megakernel: a one-line error, no image" $?
 fi
-# method[:extra args, comma-separated]: the name is the spec with ':' and ',' and '=' made '_'. split_spec sets
-# $method and the array extra from one.
-split_spec() {
-  method=${1%%:*}
-  extra=()
-  [[ $1 == *:* ]] && IFS=, read -r -a extra <<<"${1#*:}"
-  return 0
-}
 selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-pairwise,--restir-unshadowed restir:--restir-unshadowed,--restir-source=bvh,--restir-candidates=8 restir:--restir-biased restir:--restir-temporal restir:--traversal=optix restir:--megakernel,--restir-spatial=0"}
 selection_scenes=${GPU_CHECK_SELECTION_SCENES:-"many-spheres sponza-lanterns glossy"}
 # The control of a failed CPU-GPU pair NAME (CPU seed 0, GPU seed 1): the CPU rendered with seed 1; sets `same`
@@ -228,9 +243,14 @@ for scene in $selection_scenes; do
   done
 done
 
+fi
+step_done 3
+
 # 4. Memory checker on a short render.
 echo "== compute-sanitizer --tool memcheck"
-if command -v compute-sanitizer >/dev/null 2>&1; then
+if ! want 4; then
+  :
+elif command -v compute-sanitizer >/dev/null 2>&1; then
   for scene in ${GPU_CHECK_MEMCHECK_SCENES:-cornell-sphere polygon-near ${present_real[*]}}; do
     log=$out/memcheck_$scene.log
     [[ $scene == cornell-sphere ]] && log=$out/memcheck.log
@@ -262,9 +282,11 @@ if command -v compute-sanitizer >/dev/null 2>&1; then
 else
   record "compute-sanitizer memcheck: compute-sanitizer not found" 1
 fi
+step_done 4
 
 # 5. Bad input on the GPU (issue 12), on the files of tests/data.
 echo "== bad input on the GPU"
+if want 5; then
 data=$root/tests/data
 # a) A camera inside a closed box, a light and a white sky outside: every pixel
 #    exactly 0 (watertight triangles, hit points off the edges). Written as PNG
@@ -323,6 +345,8 @@ PY
   st=$?
 fi
 record "GPU memory estimate >= what the scene takes" $st
+fi
+step_done 5
 
 echo
 echo "== gpu_check summary ($(date -u +%Y-%m-%dT%H:%M:%SZ), outputs in $out)"
