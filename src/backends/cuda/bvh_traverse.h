@@ -103,11 +103,20 @@ PN_FN void bvh_load_triangle(const BvhTriangle* tris, uint32_t i, Vec3* p0, Vec3
 #endif
 }
 
+// What a traversal does, step by step, for models of it (docs/results/h200-session27/analysis): node() at each
+// inner node visited, leaf(n) at the end of each pass of the loop below (n: the triangles tested there, 1 for a
+// top-level item, 0 where the pass found no leaf). The default does nothing and compiles to nothing.
+struct BvhNoSteps {
+  PN_FN void node() const {}
+  PN_FN void leaf(uint32_t) const {}
+};
+
 // Closest hit (kAnyHit false: *hit gets the nearest hit in (0, tmax)) or any hit
 // (kAnyHit true: returns at the first hit in (0, tmax), *hit is that one). `scene`
 // is read only for alpha masks (bvh.any_alpha_masked) and may be null otherwise.
-template <bool kAnyHit>
-PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray, float tmax, HitRecord* hit) {
+template <bool kAnyHit, class Steps = BvhNoSteps>
+PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray, float tmax, HitRecord* hit,
+                     const Steps& steps = Steps()) {
   if (bvh.num_items == 0) return false;
   int32_t stack[kBvhStackSize];
   int sp = 0;
@@ -122,6 +131,7 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
   for (;;) {
     // Inner nodes: on to the nearer child the ray meets, the other onto the stack.
     while (ref >= 0) {
+      steps.node();
       const BvhNode n = bvh_load_node(bvh.nodes, ref);
       float t0, t1;
       const bool h0 = bvh_box_hit(n.c0, n.z[0], n.z[1], r, best.t, &t0);
@@ -134,9 +144,11 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
         ref = h0 ? n.child[0] : (h1 ? n.child[1] : kBvhPop);
       }
     }
+    if (ref == kBvhPop) steps.leaf(0);
     if (ref != kBvhPop) {
       const uint32_t first = bvh_leaf_first(ref);
       if (inst_sp < 0) {  // a top-level item
+        steps.leaf(1);
         const uint32_t item = bvh.items[first];
         if (item & kBvhItemSphere) {
           const uint32_t s = item & ~kBvhItemSphere;
@@ -161,6 +173,7 @@ PN_FN bool bvh_trace(const BvhView& bvh, const SceneView* scene, const Ray& ray,
         }
       } else {  // triangles of the current instance's mesh
         const uint32_t count = bvh_leaf_count(ref);
+        steps.leaf(count);
         bool stop = false;
         for (uint32_t i = 0; i < count; ++i) {
           Vec3 p0, p1, p2;
