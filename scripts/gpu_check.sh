@@ -111,7 +111,7 @@ for scene in $real_scenes; do
 done
 techniques=${GPU_CHECK_TECHNIQUES:-"area:none area:balance area:power solid-angle:none solid-angle:balance solid-angle:power projected-solid-angle:none projected-solid-angle:balance projected-solid-angle:power bsdf:none"}
 first=$(echo "$scenes" | head -n 1)
-if want 2; then
+if want 2; then  # the step, to its step_done (not indented)
 for scene in $scenes; do
   for t in $techniques; do
     strategy=${t%%:*} mis=${t##*:}
@@ -161,7 +161,7 @@ split_spec() {
 
 # 3. Light selection: every method, CPU against GPU (solid-angle, MIS power).
 echo "== light selection: CPU vs GPU"
-if want 3; then
+if want 3; then  # the step, to its step_done (not indented)
 # restir's reuse has no megakernel path (core/restir.h): --megakernel must say so in one line and exit non-zero,
 # never hang (its OptiX passes, removed, hung with the generalized balance heuristic).
 if listed many-spheres; then
@@ -286,7 +286,7 @@ step_done 4
 
 # 5. Bad input on the GPU (issue 12), on the files of tests/data.
 echo "== bad input on the GPU"
-if want 5; then
+if want 5; then  # the step, to its step_done (not indented)
 data=$root/tests/data
 # a) A camera inside a closed box, a light and a white sky outside: every pixel
 #    exactly 0 (watertight triangles, hit points off the edges). Written as PNG
