@@ -318,6 +318,71 @@ TEST_P(CudaTraversalBuiltin, BvhInvariants) {
   check_invariants(scene, false);
 }
 
+// BvhStats::sah_visits_per_ray against its meaning: the nodes below the root(s) that random lines through the
+// scene's box meet (isotropic lines, uniform in the plane across each direction: the measure under which the
+// chance of meeting a convex box is proportional to its area), counted by descending wherever a box is met.
+bool line_meets(Vec3 o, Vec3 d, const float* xy, float zlo, float zhi) {
+  float t0 = -kInf, t1 = kInf;
+  const float lo[3] = {xy[0], xy[2], zlo}, hi[3] = {xy[1], xy[3], zhi};
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0.f) {
+      if (o[a] < lo[a] || o[a] > hi[a]) return false;
+      continue;
+    }
+    float ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  return t0 <= t1;
+}
+
+uint32_t line_visits(const BvhHost& b, int32_t ref, Vec3 o, Vec3 d, bool top) {
+  if (ref < 0) {
+    if (!top) return 0;
+    const uint32_t item = b.items[bvh_leaf_first(ref)];
+    if (item & kBvhItemSphere) return 0;
+    const BvhInstance& inst = b.instances[item];
+    return line_visits(b, inst.root, inst.to_object.point(o), inst.to_object.vector(d), false);
+  }
+  const BvhNode& n = b.nodes[size_t(ref)];
+  uint32_t v = 0;
+  if (line_meets(o, d, n.c0, n.z[0], n.z[1])) v += 1 + line_visits(b, n.child[0], o, d, top);
+  if (line_meets(o, d, n.c1, n.z[2], n.z[3])) v += 1 + line_visits(b, n.child[1], o, d, top);
+  return v;
+}
+
+TEST_P(CudaTraversalBuiltin, SahVisitsAreThoseOfRandomLines) {
+  const Scene scene = load();
+  if (!skipped_.empty()) GTEST_SKIP() << skipped_;
+  const BvhHost b = build_bvh(scene);
+  ASSERT_GE(b.root, 0) << "every built-in scene has more than one top-level item";
+  const BvhNode& r = b.nodes[size_t(b.root)];
+  const float xy[4] = {std::min(r.c0[0], r.c1[0]), std::max(r.c0[1], r.c1[1]), std::min(r.c0[2], r.c1[2]),
+                       std::max(r.c0[3], r.c1[3])};
+  const float zlo = std::min(r.z[0], r.z[2]), zhi = std::max(r.z[1], r.z[3]);
+  const Vec3 c(0.5f * (xy[0] + xy[1]), 0.5f * (xy[2] + xy[3]), 0.5f * (zlo + zhi));
+  const float radius = 0.5f * length(Vec3(xy[1] - xy[0], xy[3] - xy[2], zhi - zlo));
+  Rng rng(5, 0, 1);
+  double sum = 0, sum_sq = 0;
+  int n = 0;
+  while (n < 20000) {
+    const Vec3 d = sample_uniform_sphere(rng.uniform2());
+    const Frame f = Frame::from_z(d);
+    const Vec2 u = rng.uniform2();
+    const Vec3 o = c + f.s * ((2.f * u.x - 1.f) * radius) + f.t * ((2.f * u.y - 1.f) * radius);
+    if (!line_meets(o, d, xy, zlo, zhi)) continue;
+    const double v = line_visits(b, b.root, o, d, true);
+    sum += v;
+    sum_sq += v * v;
+    ++n;
+  }
+  const double mean = sum / n, se = std::sqrt(std::max(0.0, sum_sq / n - mean * mean) / n);
+  std::printf("%-16s SAH visits a ray %.2f, random lines %.2f +- %.2f\n", GetParam().c_str(),
+              b.stats.sah_visits_per_ray, mean, se);
+  EXPECT_NEAR(b.stats.sah_visits_per_ray, mean, 4.0 * se + 0.02 * mean) << GetParam();
+}
+
 INSTANTIATE_TEST_SUITE_P(Scenes, CudaTraversalBuiltin, ::testing::ValuesIn(builtin_names()),
                          [](const ::testing::TestParamInfo<std::string>& info) {
                            std::string n = info.param;

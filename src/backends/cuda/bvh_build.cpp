@@ -207,6 +207,87 @@ uint64_t BvhHost::bytes() const {
          instances.size() * sizeof(BvhInstance) + items.size() * sizeof(uint32_t) + spheres.size() * sizeof(float);
 }
 
+namespace {
+
+// A box's edge products (x y, y z, z x): its surface area is twice their sum, and a linear map M takes it to a
+// parallelepiped of area 2 (|Mx x My| x y + |My x Mz| y z + |Mz x Mx| z x), x, y, z the unit axes.
+struct EdgeProducts {
+  double xy = 0, yz = 0, zx = 0;
+  void add(const float* xy_lo_hi, float zlo, float zhi) {
+    const double dx = std::max(0.f, xy_lo_hi[1] - xy_lo_hi[0]), dy = std::max(0.f, xy_lo_hi[3] - xy_lo_hi[2]),
+                 dz = std::max(0.f, zhi - zlo);
+    xy += dx * dy, yz += dy * dz, zx += dz * dx;
+  }
+  double area(const EdgeProducts& k) const { return 2.0 * (k.xy * xy + k.yz * yz + k.zx * zx); }
+};
+constexpr EdgeProducts kIdentityFaces{1.0, 1.0, 1.0};
+
+// An instance's face factors (|Mx x My|, |My x Mz|, |Mz x Mx|) for the linear part M of its to_world.
+EdgeProducts face_factors(const Affine& to_world) {
+  const float* m = to_world.m;  // rows (r0 r1 r2 t): column a is (m[a], m[4 + a], m[8 + a])
+  auto col = [&](int a) { return Vec3(m[a], m[4 + a], m[8 + a]); };
+  return EdgeProducts{double(length(cross(col(0), col(1)))), double(length(cross(col(1), col(2)))),
+                      double(length(cross(col(2), col(0))))};
+}
+
+void root_box(const BvhNode& n, float xy[4], float* zlo, float* zhi) {
+  xy[0] = std::min(n.c0[0], n.c1[0]), xy[1] = std::max(n.c0[1], n.c1[1]);
+  xy[2] = std::min(n.c0[2], n.c1[2]), xy[3] = std::max(n.c0[3], n.c1[3]);
+  *zlo = std::min(n.z[0], n.z[2]), *zhi = std::max(n.z[1], n.z[3]);
+}
+
+// The children's boxes of the inner nodes under `ref`, in their own space (one level: a top-level leaf stops it).
+void subtree_boxes(const BvhHost& b, int32_t ref, EdgeProducts* sum) {
+  if (ref < 0) return;
+  const BvhNode& n = b.nodes[size_t(ref)];
+  sum->add(n.c0, n.z[0], n.z[1]);
+  sum->add(n.c1, n.z[2], n.z[3]);
+  subtree_boxes(b, n.child[0], sum);
+  subtree_boxes(b, n.child[1], sum);
+}
+
+// The world-space area of the children's boxes under top-level `ref`, each instance's mesh tree (its sums kept by
+// mesh root in `mesh`) taken through its transform (`faces`: face_factors of each BvhInstance).
+double top_areas(const BvhHost& b, int32_t ref, const std::vector<EdgeProducts>& faces,
+                 std::vector<EdgeProducts>& mesh, std::vector<bool>& mesh_done) {
+  if (ref < 0) {
+    const uint32_t item = b.items[bvh_leaf_first(ref)];
+    if (item & kBvhItemSphere) return 0.0;
+    const int32_t root = b.instances[item].root;
+    if (root < 0) return 0.0;  // a mesh of one leaf
+    if (!mesh_done[size_t(root)]) subtree_boxes(b, root, &mesh[size_t(root)]), mesh_done[size_t(root)] = true;
+    return mesh[size_t(root)].area(faces[item]);
+  }
+  const BvhNode& n = b.nodes[size_t(ref)];
+  EdgeProducts own;
+  own.add(n.c0, n.z[0], n.z[1]);
+  own.add(n.c1, n.z[2], n.z[3]);
+  return own.area(kIdentityFaces) + top_areas(b, n.child[0], faces, mesh, mesh_done) +
+         top_areas(b, n.child[1], faces, mesh, mesh_done);
+}
+
+double sah_visits_per_ray(const BvhHost& b, const std::vector<EdgeProducts>& faces) {
+  if (b.items.empty()) return 0.0;
+  std::vector<EdgeProducts> mesh(b.nodes.size());
+  std::vector<bool> mesh_done(b.nodes.size(), false);
+  float xy[4], zlo, zhi;
+  EdgeProducts root;  // the top level's root box: its children's union, or its one item's mesh box in world space
+  EdgeProducts root_faces = kIdentityFaces;
+  if (b.root >= 0) {
+    root_box(b.nodes[size_t(b.root)], xy, &zlo, &zhi);
+  } else {
+    const uint32_t item = b.items[bvh_leaf_first(b.root)];
+    if ((item & kBvhItemSphere) || b.instances[item].root < 0) return 0.0;
+    root_box(b.nodes[size_t(b.instances[item].root)], xy, &zlo, &zhi);
+    root_faces = faces[item];
+  }
+  root.add(xy, zlo, zhi);
+  const double area = root.area(root_faces);
+  return area > 0.0 ? top_areas(b, b.root, faces, mesh, mesh_done) / area : 0.0;
+}
+
+}  // namespace
+
 BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   BvhHost out;
@@ -262,6 +343,7 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
 
   // ---- Top level: instances (their mesh's box in world space) and spheres ----
   std::vector<RTCBuildPrimitive> prims;
+  std::vector<EdgeProducts> faces;  // per BvhInstance, for stats.sah_visits_per_ray
   for (size_t ii = 0; ii < scene.instances.size(); ++ii) {
     const Instance& inst = scene.instances[ii];
     if (!mesh_built[inst.mesh]) continue;
@@ -287,6 +369,7 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
     prims.push_back(build_primitive(lo, hi, uint32_t(out.items.size())));
     out.items.push_back(uint32_t(out.instances.size()));
     out.instances.push_back(bi);
+    faces.push_back(face_factors(inst.to_world));
   }
   for (size_t si = 0; si < scene.spheres.size(); ++si) {
     const Sphere& s = scene.spheres[si];
@@ -309,6 +392,7 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
     throw std::runtime_error(scene.source + ": the cuda traversal's BVH is " +
                              std::to_string(out.stats.top_depth + out.stats.max_mesh_depth) +
                              " nodes deep, more than its stack of " + std::to_string(kBvhStackSize));
+  out.stats.sah_visits_per_ray = sah_visits_per_ray(out, faces);
   out.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
