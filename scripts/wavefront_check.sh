@@ -17,8 +17,9 @@
 #      the launch sums) renders the default pool's image (one wave a launch: straight into the film) byte for byte
 #      (the accumulation sums each pixel's samples in order); the cuda stage's shadow rays traced and applied in
 #      one kernel == in two (PENUMBRA_WAVEFRONT_FUSE=0, same paths), its trace kernels at 10 resident blocks ==
-#      at 8 (PENUMBRA_CUDA_OCC=0, byte for byte); restir with spatial reuse (its frame passes, in the wavefront
-#      since session 20) agrees with the CPU;
+#      at 8 (PENUMBRA_CUDA_OCC=0, byte for byte); shadow queries in direction order == queue order (byte for byte
+#      traced forward; the same paths traced from the light); restir with spatial reuse (its frame passes, in the
+#      wavefront since session 20) agrees with the CPU;
 #   5. compute-sanitizer --tool memcheck on short wavefront renders, both traversals: 0 errors;
 #   6. `penumbra bench` at 1920x1080, 1 spp a launch, depth 8, solid-angle: megakernel, wavefront optix,
 #      wavefront cuda on cornell-sphere and sponza (the issue's targets: <= 2.0 and <= 8 ms per sample),
@@ -144,6 +145,25 @@ if [[ -f $out/${n}_big.exr ]]; then
     record "trace kernels at 8 resident blocks: render" 1
   fi
 fi
+# The shadow queue's order (wavefront.h's ShadowOrder; auto picks it by the scene's rays' length): by direction
+# and traced forward, every query gets its answer and each path its contributions in the same order as in queue
+# order, byte for byte; traced from the light back (the default with the order), the same paths.
+for scene in cornell-sphere sponza; do
+  listed "$scene" || continue
+  n=${scene}_shadow_order
+  if PENUMBRA_SHADOW_ORDER=queue render "${n}_queue" "$scene" solid-angle power 7 --backend optix --wavefront \
+       --traversal cuda &&
+     PENUMBRA_SHADOW_ORDER=direction PENUMBRA_SHADOW_REVERSE=0 render "${n}_forward" "$scene" solid-angle power 7 \
+       --backend optix --wavefront --traversal cuda &&
+     PENUMBRA_SHADOW_ORDER=direction render "${n}_reversed" "$scene" solid-angle power 7 --backend optix \
+       --wavefront --traversal cuda; then
+    cmp -s "$out/${n}_queue.exr" "$out/${n}_forward.exr"
+    record "$scene: shadow rays in direction order == queue order, byte for byte" $?
+    same_paths "${n}_queue" "${n}_reversed" "$scene: shadow rays in direction order, traced from the light == queue order"
+  else
+    record "$scene: shadow order renders" 1
+  fi
+done
 if listed many-spheres; then
   render restir_passes_cpu many-spheres solid-angle power 0 --backend cpu --light-selection restir \
     --set defaults.lights=200 &&

@@ -265,6 +265,114 @@ TEST(WavefrontRestir, PoolSmallerThanOnePixelsQueriesIsAnError) {
   EXPECT_EQ(depth.sum, render(scene, CpuSchedule::Wavefront, 0, 2, 3).sum);
 }
 
+// The shadow queue's order by direction (wavefront.h's ShadowOrder): every cell of the octahedral grid is used, a
+// cell holds directions within a small cone (so that rays of one cell toward one light run close together), and
+// counting then placing puts every query once, in cell order, each cell's queries in their queue order.
+TEST(ShadowOrder, CellsAreSmallConesCoveringTheSphere) {
+  Rng rng(7, 0, 1);
+  std::vector<Vec3> first(kShadowCells, Vec3(0.f));
+  std::vector<uint32_t> seen(kShadowCells, 0);
+  float widest = 0.f;
+  for (int i = 0; i < 4000000; ++i) {
+    const Vec3 d = sample_uniform_sphere(rng.uniform2());
+    const uint32_t c = shadow_direction_cell(d);
+    ASSERT_LT(c, kShadowCells);
+    if (seen[c]++ == 0) first[c] = d;
+    widest = std::max(widest, std::acos(std::min(1.f, dot(d, first[c]))));
+  }
+  uint32_t used = 0;
+  for (uint32_t n : seen) used += n > 0;
+  // 16,384 cells of 4 pi / 16,384 sr each on average (a cone of about 0.016 rad); the octahedral map stretches
+  // cells by at most a few times.
+  EXPECT_EQ(used, kShadowCells);
+  EXPECT_LT(widest, 0.1f);
+  EXPECT_EQ(shadow_direction_cell(Vec3(std::nanf(""), 0.f, 0.f)), 0u);
+}
+
+TEST(ShadowOrder, PlacesEveryQueryOnceInCellOrder) {
+  const uint32_t n = 50000;
+  std::vector<uint32_t> cell_count(kShadowCells, 0), cell_start(kShadowCells), cell(n), rank(n), order(n, ~0u);
+  ShadowOrder o;
+  o.cell_count = cell_count.data();
+  o.cell_start = cell_start.data();
+  o.cell = cell.data();
+  o.rank = rank.data();
+  o.order = order.data();
+  Rng rng(11, 0, 1);
+  std::vector<Vec3> dirs(n);
+  for (uint32_t k = 0; k < n; ++k) {
+    // Clustered, as shadow rays toward one light: a few directions, a little spread.
+    const Vec3 axis = k % 3 == 0 ? Vec3(0.f, 1.f, 0.f) : normalize(Vec3(1.f, -0.5f, float(k % 5)));
+    dirs[k] = normalize(axis + 0.05f * sample_uniform_sphere(rng.uniform2()));
+    shadow_order_count(o, k, dirs[k]);
+  }
+  uint32_t start = 0;  // the GPU's scan kernel, serially
+  for (uint32_t c = 0; c < kShadowCells; ++c) {
+    cell_start[c] = start;
+    start += cell_count[c];
+  }
+  ASSERT_EQ(start, n);
+  for (uint32_t j = 0; j < n; ++j) shadow_order_place(j, o);
+  std::vector<uint32_t> placed(n, 0);
+  for (uint32_t i = 0; i < n; ++i) {
+    ASSERT_LT(order[i], n);
+    ++placed[order[i]];
+    if (i > 0) {
+      ASSERT_LE(cell[order[i - 1]], cell[order[i]]) << i;
+      if (cell[order[i - 1]] == cell[order[i]]) {
+        EXPECT_LT(order[i - 1], order[i]);
+      }
+    }
+    EXPECT_EQ(cell[order[i]], shadow_direction_cell(dirs[order[i]]));
+  }
+  for (uint32_t j = 0; j < n; ++j) EXPECT_EQ(placed[j], 1u) << j;
+}
+
+// The GPU's ordered shadow queries are traced from the light back (reversed_shadow_ray): every built-in scene's
+// shadow queries, made by real paths, get the same answers both ways from the cuda traversal's host code.
+struct BothWaysTracer {
+  const BvhView* bvh;
+  const SceneView* scene;
+  mutable uint32_t queries = 0, finite = 0, blocked = 0, differ = 0;
+  bool intersect(const Ray& r, float tmax, HitRecord* h) const { return bvh_intersect(*bvh, scene, r, tmax, h); }
+  bool occluded(const Ray& r, float tmax) const {
+    const bool forward = bvh_occluded(*bvh, scene, r, tmax);
+    float back_tmax = tmax;
+    const Ray back = reversed_shadow_ray(r, &back_tmax);
+    ++queries;
+    if (tmax < kInf) {
+      ++finite;
+      // The same segment: it ends where the forward ray starts, short of it by the slack only.
+      const Vec3 end = back.o + back.d * back_tmax;
+      EXPECT_LT(length(end - r.o), 2e-5f * (std::fabs(r.o.x) + std::fabs(r.o.y) + std::fabs(r.o.z) + 3.f * tmax));
+    }
+    blocked += forward;
+    differ += forward != bvh_occluded(*bvh, scene, back, back_tmax);
+    return forward;
+  }
+};
+
+TEST(ShadowOrder, ReversedShadowRaysGiveTheSameAnswers) {
+  for (const BuiltinScene& b : builtin_scenes()) {
+    const Scene scene = load_scene(b.name, {"render.width=48", "render.height=32", "render.max_depth=3"});
+    const std::unique_ptr<HostSceneView> host = make_host_view(scene);
+    const BvhHost bvh_host = build_bvh(scene);
+    const BvhView bvh = bvh_host.view();
+    const Camera camera = scene.make_camera();
+    const IntegratorSettings s = scene.integrator();
+    BothWaysTracer tracer{&bvh, &host->view};
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 48; ++x) {
+        PathState st = start_path(camera, x, y, 0, 9);
+        trace_path(tracer, host->view, s, st);
+      }
+    std::printf("%-16s %5u shadow queries (%u finite), %5.1f%% blocked, %u answered differently\n", b.name,
+                tracer.queries, tracer.finite, 100.0 * tracer.blocked / pn_max(1u, tracer.queries), tracer.differ);
+    EXPECT_GT(tracer.queries, 500u) << b.name;
+    EXPECT_EQ(tracer.differ, 0u) << b.name;
+  }
+}
+
 // The pool's bytes per path from the sizes of its arrays, and at 1080p (one slot per pixel: one sample of every
 // pixel in one wave, the GPU's default pool) under the 1 GiB.
 TEST(WavefrontMemory, PoolAt1080pIsUnderOneGiB) {

@@ -3,6 +3,7 @@
 // recorded in a CUDA graph. Per wave the host writes only the wave's items (a WaveSpec) before replaying it.
 #include "backends/wavefront/wavefront_gpu.h"
 
+#include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
@@ -59,6 +60,52 @@ __global__ void __launch_bounds__(kBlock) apply_kernel() {
 }
 
 __global__ void begin_bounce_kernel(int next) { begin_bounce(WP().view, next); }
+
+// The direction cells' counts to their first positions in the traced order (exclusive prefix sums, one block;
+// each warp's loads and stores are 32 consecutive words: the first form, 16 consecutive cells a thread, took 32 us
+// on the H200), the counts emptied for the next queue; then each query to its place (wavefront.h's ShadowOrder).
+constexpr int kScanThreads = 1024;
+__device__ __forceinline__ uint32_t warp_inclusive_sum(uint32_t v, uint32_t lane) {
+  for (uint32_t d = 1; d < 32; d <<= 1) {
+    const uint32_t u = __shfl_up_sync(~0u, v, d);
+    if (lane >= d) v += u;
+  }
+  return v;
+}
+__global__ void __launch_bounds__(kScanThreads) shadow_cells_scan_kernel() {
+  const ShadowOrder& o = WP().view.shadow_order;
+  constexpr uint32_t kWarps = kScanThreads / 32, kPerWarp = kShadowCells / kWarps, kRounds = kPerWarp / 32;
+  static_assert(kWarps == 32 && kPerWarp % 32 == 0, "a warp's totals scanned by one warp; whole rounds of 32");
+  __shared__ uint32_t warp_first[kWarps];
+  const uint32_t lane = threadIdx.x & 31u, warp = threadIdx.x >> 5, base = warp * kPerWarp;
+  uint32_t start[kRounds];
+  uint32_t running = 0;
+#pragma unroll
+  for (uint32_t k = 0; k < kRounds; ++k) {
+    const uint32_t i = base + k * 32u + lane;
+    const uint32_t n = o.cell_count[i];
+    o.cell_count[i] = 0;
+    const uint32_t inclusive = warp_inclusive_sum(n, lane);
+    start[k] = running + inclusive - n;
+    running += __shfl_sync(~0u, inclusive, 31);
+  }
+  if (lane == 0) warp_first[warp] = running;
+  __syncthreads();
+  if (warp == 0) {
+    const uint32_t n = warp_first[lane];
+    warp_first[lane] = warp_inclusive_sum(n, lane) - n;
+  }
+  __syncthreads();
+  const uint32_t first = warp_first[warp];
+#pragma unroll
+  for (uint32_t k = 0; k < kRounds; ++k) o.cell_start[base + k * 32u + lane] = first + start[k];
+}
+
+__global__ void __launch_bounds__(kBlock) shadow_order_kernel() {
+  const WavefrontView& w = WP().view;
+  const uint32_t n = *w.shadow.count;
+  for (uint32_t j = first_index(); j < n; j += stride()) shadow_order_place(j, w.shadow_order);
+}
 
 // Two resident blocks per SM: at most 128 registers a thread (the shading alone would take 181 and leave one
 // block of 8 warps per SM). Measured on the H200 (bench, 1080p, solid-angle): cornell-sphere 2.71 -> 2.59 ms,
@@ -199,10 +246,12 @@ class CudaTraceStage final : public WavefrontTraceStage {
   void shadow(void* stream) override {
     traversal_.trace_shadow(q_.shadow_rays, q_.shadow_count, q_.capacity, q_.blocked_bits, scene_, stream);
   }
-  bool shadow_apply(const WavefrontView* view, void* stream) override {
-    launch_shadow_apply(traversal_.device_view(), scene_, view, q_.capacity, stream);
+  bool shadow_apply(const WavefrontView* view, bool ordered, void* stream) override {
+    launch_shadow_apply(traversal_.device_view(), scene_, view, q_.capacity, ordered, stream);
     return true;
   }
+  bool offers_shadow_apply() const override { return true; }
+  double sah_visits_per_ray() const override { return traversal_.stats().sah_visits_per_ray; }
   std::string name() const override { return "cuda"; }
 
  private:
@@ -250,6 +299,11 @@ WavefrontView carve(char* base, uint32_t capacity, uint64_t* bytes) {
   w.shadow.count = counts ? counts + 2 : nullptr;
   w.hits = c.take<HitRecord>(capacity);
   w.blocked_bits = c.take<uint32_t>(trace_bit_words(capacity));
+  w.shadow_order.cell_count = c.take<uint32_t>(kShadowCells);
+  w.shadow_order.cell_start = c.take<uint32_t>(kShadowCells);
+  w.shadow_order.cell = c.take<uint32_t>(capacity);
+  w.shadow_order.rank = c.take<uint32_t>(capacity);
+  w.shadow_order.order = c.take<uint32_t>(capacity);
   *bytes = c.used();
   return w;
 }
@@ -295,6 +349,32 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   // PENUMBRA_WAVEFRONT_FILM=0: every launch through the launch sums and launch_accumulate.
   const char* film = std::getenv("PENUMBRA_WAVEFRONT_FILM");
   film_direct_ = !(film && std::string(film) == "0");
+  // PENUMBRA_SHADOW_ORDER=auto|direction|queue: the shadow queue traced in direction order where rays are long
+  // (kShadowOrderMinVisits), always, or never. Only the fused shadow stage reads the order.
+  const char* env_order = std::getenv("PENUMBRA_SHADOW_ORDER");
+  const std::string order = env_order ? env_order : "auto";
+  if (order != "auto" && order != "direction" && order != "queue")
+    throw std::runtime_error("PENUMBRA_SHADOW_ORDER must be auto, direction or queue, not '" + order + "'");
+  const double visits = trace_->sah_visits_per_ray();
+  char buf[160];
+  if (!(fuse_shadow_ && trace_->offers_shadow_apply())) {
+    order_shadow_ = false;
+    order_reason_ = "queue order (the trace stage does not fuse tracing and applying shadow rays)";
+  } else if (order != "auto") {
+    order_shadow_ = order == "direction";
+    order_reason_ = order + " order (PENUMBRA_SHADOW_ORDER)";
+  } else {
+    order_shadow_ = visits >= kShadowOrderMinVisits;
+    std::snprintf(buf, sizeof buf, "%s order (auto: rays visit %.1f nodes, %s %.0f)",
+                  order_shadow_ ? "direction" : "queue", visits, order_shadow_ ? "at least" : "under",
+                  kShadowOrderMinVisits);
+    order_reason_ = buf;
+  }
+  if (order_shadow_) {
+    check(cudaMemset(view_.shadow_order.cell_count, 0, kShadowCells * sizeof(uint32_t)), "the direction cells");
+  } else {
+    view_.shadow_order = ShadowOrder();
+  }
   WavefrontTraceStage::Queues q;
   for (int k = 0; k < 2; ++k) {
     q.closest_rays[k] = view_.ray[k].rays;
@@ -351,7 +431,14 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_p
     check(cudaGetLastError(), "the camera kernel");
     for (int it = 0, cur = 0; it <= max_depth; ++it, cur ^= 1) {
       trace_->closest(cur, stream);
-      if (!(fuse_shadow_ && trace_->shadow_apply(view_device_, stream))) {
+      // The queries shade made at depth it - 1 (all of this iteration's: a wave's paths move in step).
+      const bool ordered = order_shadow_ && it - 1 >= kShadowOrderDepth;
+      if (ordered) {
+        shadow_cells_scan_kernel<<<1, kScanThreads, 0, stream>>>();
+        shadow_order_kernel<<<grid, kBlock, 0, stream>>>();
+        check(cudaGetLastError(), "the shadow queue's order");
+      }
+      if (!(fuse_shadow_ && trace_->shadow_apply(view_device_, ordered, stream))) {
         trace_->shadow(stream);
         apply_kernel<<<grid, kBlock, 0, stream>>>();
       }

@@ -13,7 +13,9 @@ namespace pn {
 // Queued on `stream` (a cudaStream_t). `bvh` and `scene` are device views (scene: alpha masks); `view` points
 // to the wavefront's WavefrontView in device memory (restir's primary pass sets its RestirFrame per render call,
 // after a CUDA graph holding this launch is recorded); `capacity` bounds the shadow queue's device count.
+// `ordered`: the queue's ShadowOrder holds this queue's order (wavefront.h); its queries are then traced in that
+// order, each from the light's end back (reversed_shadow_ray).
 void launch_shadow_apply(const BvhView& bvh, const SceneView& scene, const WavefrontView* view, uint32_t capacity,
-                         void* stream);
+                         bool ordered, void* stream);
 
 }  // namespace pn
