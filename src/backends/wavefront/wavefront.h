@@ -131,8 +131,8 @@ PN_FN void shadow_order_count(const ShadowOrder& o, uint32_t kq, Vec3 d) {
   const uint32_t c = shadow_direction_cell(d);
   o.cell[kq] = c;
 #if defined(__CUDA_ARCH__)
-  // One atomic per cell a warp (lanes of one warp often share a cell: one atomic a lane queued behind each
-  // other on the few cells around a small light's direction cost cornell-sphere 0.1 ms a sample).
+  // One atomic per cell a warp: lanes of one warp often share a cell, and one atomic a lane, queued on the few
+  // cells around a small light's direction, was part of what the first form cost (cornell-sphere, session 28).
   const unsigned peers = __match_any_sync(__activemask(), c);
   const int lane = int(threadIdx.x & 31u), leader = __ffs(int(peers)) - 1;
   uint32_t first = 0;

@@ -124,9 +124,10 @@ class WavefrontGpu {
 };
 
 // Where PENUMBRA_SHADOW_ORDER is auto (its default), the shadow queries are ordered by direction when rays in the
-// scene visit at least this many nodes (BvhStats::sah_visits_per_ray): measured on the H200 (session 28), the order
-// paid for itself on Sponza (46 visits: 10.55 -> 9.69 ms a 1080p sample) and not on cornell-sphere (9.4: 1.94 ->
-// 2.09 ms), whose short traversals leave the shadow stage nothing to gain.
+// scene visit at least this many nodes (BvhStats::sah_visits_per_ray). Measured on the H200 (session 28,
+// docs/results/h200-session28), ms a 1080p sample, queue -> direction order: sponza (46 visits) 10.56 -> 9.70,
+// sponza-lanterns (50) 12.81 -> 12.11; cornell-sphere (9.4) 1.94 -> 2.09, glossy (2) +3%, bunnies (14) +0.4%,
+// many-spheres (18, many lights) +2%; occlusion (16) -7%, a gain this rule misses.
 constexpr double kShadowOrderMinVisits = 24.0;
 
 // The default pool: one slot per pixel of a 1920 x 2048 frame (2^21: 1080p in one wave at one sample per pixel);
