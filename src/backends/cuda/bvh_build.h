@@ -22,8 +22,8 @@ struct BvhStats {
   uint64_t mesh_triangles = 0;   // the built meshes' triangles
   uint64_t triangle_references = 0;  // BvhHost::triangles: more than mesh_triangles where splits copied some
   // The surface area heuristic's nodes a ray visits below the roots: the sum over inner nodes (both levels, a
-  // mesh's once for each instance of it) of their children's box areas over the root's, a mesh's areas scaled by
-  // its instance's box. The chance that a random line through a box meets a convex box inside it is the ratio of
+  // mesh's once for each instance of it) of their children's box areas over the root's, a mesh's boxes taken
+  // through its instance's transform (the area of the parallelepiped each becomes). The chance that a random line through a box meets a convex box inside it is the ratio of
   // their surface areas (Cauchy-Crofton), so this counts the visits of a line that nothing stops (each visit of
   // an inner node tests two boxes): how long a ray's traversal is in this scene.
   double sah_visits_per_ray = 0;

@@ -92,9 +92,8 @@ class WavefrontGpu {
                      const RestirFrameBuffers& b, void* sum, void* sum_sq, void* stream);
 
   uint32_t capacity() const { return capacity_; }
-  // Whether shadow queries from depth kShadowOrderDepth on are traced in direction order (wavefront.h's
-  // ShadowOrder), and why, in a few words.
-  bool orders_shadow_queries() const { return order_shadow_; }
+  // In which order shadow queries from depth kShadowOrderDepth on are traced (wavefront.h's ShadowOrder), and why,
+  // in a few words ("direction order (auto: rays visit 46.4 nodes, at least 24)").
   const std::string& shadow_order_reason() const { return order_reason_; }
   uint64_t device_bytes() const { return bytes_; }
   std::string traversal() const { return trace_->name(); }
