@@ -118,7 +118,8 @@ json bench_json(const char* tool, const std::string& device,
   j["git_commit"] = PENUMBRA_GIT_COMMIT;
   j["device"] = device;
   json dev = json::object();
-  for (const auto& kv : info) dev[kv.first] = kv.second;
+  for (const auto& kv : info)
+    if (kv.first != "shadow_order") dev[kv.first] = kv.second;  // per scene (scene_builds), not the device's
   dev["host_cpu"] = cpu_model();
   j["device_info"] = dev;
   return j;
@@ -153,6 +154,7 @@ struct SceneBuild {
   size_t triangles = 0, instances = 0, spheres = 0, textures = 0, lights = 0;
   double light_bvh_ms = 0, light_bvh_mib = 0;  // host build of the light BVH, its size
   SceneBuildStats stats;
+  std::string shadow_order;  // the wavefront's order of shadow queries for this scene, and why (GPU)
 };
 
 double mib(uint64_t bytes) { return double(bytes) / (1024.0 * 1024.0); }
@@ -392,6 +394,8 @@ int run_bench(const BenchArgs& a) {
       b.light_bvh_ms = scene.light_bvh.build_ms;
       b.light_bvh_mib = mib(scene.light_bvh.bytes());
       b.stats = backend->scene_build_stats();
+      for (const auto& kv : backend->device_info())
+        if (kv.first == "shadow_order") b.shadow_order = kv.second;
       builds.push_back(b);
     }
 
@@ -573,6 +577,7 @@ int run_bench(const BenchArgs& a) {
         o["device_used_delta_mib"] = mib(s.device_used_after) - mib(s.device_used_before);
         o["estimated_mib"] = mib(s.estimated_bytes);  // checked against free memory before building
       }
+      if (!b.shadow_order.empty()) o["shadow_order"] = b.shadow_order;
       sb.push_back(o);
     }
     j["scene_builds"] = sb;
