@@ -353,8 +353,16 @@ struct BothWaysTracer {
 };
 
 TEST(ShadowOrder, ReversedShadowRaysGiveTheSameAnswers) {
+  int scenes = 0;
   for (const BuiltinScene& b : builtin_scenes()) {
-    const Scene scene = load_scene(b.name, {"render.width=48", "render.height=32", "render.max_depth=3"});
+    Scene scene;
+    try {
+      scene = load_scene(b.name, {"render.width=48", "render.height=32", "render.max_depth=3"});
+    } catch (const SceneError& e) {  // the scenes of ../shared (Sponza, the bunny) where they are not found
+      std::printf("%-16s skipped: %s\n", b.name, e.what());
+      continue;
+    }
+    ++scenes;
     const std::unique_ptr<HostSceneView> host = make_host_view(scene);
     const BvhHost bvh_host = build_bvh(scene);
     const BvhView bvh = bvh_host.view();
@@ -371,6 +379,7 @@ TEST(ShadowOrder, ReversedShadowRaysGiveTheSameAnswers) {
     EXPECT_GT(tracer.queries, 500u) << b.name;
     EXPECT_EQ(tracer.differ, 0u) << b.name;
   }
+  EXPECT_GE(scenes, 5);  // the procedural scenes at least
 }
 
 // The pool's bytes per path from the sizes of its arrays, and at 1080p (one slot per pixel: one sample of every
