@@ -328,6 +328,29 @@ TEST(ShadowOrder, PlacesEveryQueryOnceInCellOrder) {
   for (uint32_t j = 0; j < n; ++j) EXPECT_EQ(placed[j], 1u) << j;
 }
 
+// The shadow order's environment: unset is auto, traced from the light; a misspelt order is an error that names
+// the variable and the value (the GPU's wavefront reads it before allocating anything).
+TEST(ShadowOrder, EnvironmentSettingAndItsErrors) {
+  EXPECT_EQ(shadow_order_setting(nullptr, nullptr).mode, ShadowOrderSetting::Mode::Auto);
+  EXPECT_TRUE(shadow_order_setting(nullptr, nullptr).reverse);
+  EXPECT_EQ(shadow_order_setting("auto", nullptr).mode, ShadowOrderSetting::Mode::Auto);
+  EXPECT_EQ(shadow_order_setting("direction", "1").mode, ShadowOrderSetting::Mode::Direction);
+  EXPECT_TRUE(shadow_order_setting("direction", "1").reverse);
+  EXPECT_EQ(shadow_order_setting("queue", nullptr).mode, ShadowOrderSetting::Mode::Queue);
+  EXPECT_FALSE(shadow_order_setting("direction", "0").reverse);
+  for (const char* bad : {"Direction", "", "directions", "1"}) {
+    try {
+      shadow_order_setting(bad, nullptr);
+      ADD_FAILURE() << "no error for '" << bad << "'";
+    } catch (const std::runtime_error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("PENUMBRA_SHADOW_ORDER"), std::string::npos) << what;
+      EXPECT_NE(what.find(std::string("'") + bad + "'"), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+  }
+}
+
 // The GPU's ordered shadow queries are traced from the light back (reversed_shadow_ray): every built-in scene's
 // shadow queries, made by real paths, get the same answers both ways from the cuda traversal's host code.
 struct BothWaysTracer {

@@ -108,7 +108,26 @@ struct ShadowOrder {
   uint32_t* cell = nullptr;        // per queue position: its direction's cell
   uint32_t* rank = nullptr;        // per queue position: the queries counted into its cell before it
   uint32_t* order = nullptr;       // per position in the traced order: the queue position
+  uint32_t reverse = 0;            // 1: ordered queries traced from the light back (reversed_shadow_ray)
 };
+
+// The shadow order's environment: PENUMBRA_SHADOW_ORDER = auto (unset: the same) | direction | queue, and
+// PENUMBRA_SHADOW_REVERSE = 0 to trace ordered queries forward (measurement knobs). Any other order is an error
+// naming the variable and the value.
+struct ShadowOrderSetting {
+  enum class Mode { Auto, Direction, Queue } mode = Mode::Auto;
+  bool reverse = true;
+};
+inline ShadowOrderSetting shadow_order_setting(const char* order, const char* reverse) {
+  ShadowOrderSetting s;
+  const std::string o = order ? order : "auto";
+  if (o == "direction") s.mode = ShadowOrderSetting::Mode::Direction;
+  else if (o == "queue") s.mode = ShadowOrderSetting::Mode::Queue;
+  else if (o != "auto")
+    throw std::runtime_error("PENUMBRA_SHADOW_ORDER must be auto, direction or queue, not '" + o + "'");
+  s.reverse = !(reverse && std::string(reverse) == "0");
+  return s;
+}
 
 // The cell of unit direction d: its point on the octahedron |x| + |y| + |z| = 1, the lower half folded out over
 // the square's corners, on a grid of 2^kShadowCellBits a side.

@@ -326,6 +326,9 @@ std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, c
 
 WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t capacity, int num_sms)
     : trace_(std::move(trace)), capacity_(capacity), num_sms_(num_sms > 0 ? num_sms : 1) {
+  // The environment's shadow order first: a bad value throws before anything is allocated.
+  const ShadowOrderSetting setting =
+      shadow_order_setting(std::getenv("PENUMBRA_SHADOW_ORDER"), std::getenv("PENUMBRA_SHADOW_REVERSE"));
   carve(nullptr, capacity_, &bytes_);
   size_t free_bytes = 0, total = 0;
   check(cudaMemGetInfo(&free_bytes, &total), "cudaMemGetInfo");
@@ -349,20 +352,16 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   // PENUMBRA_WAVEFRONT_FILM=0: every launch through the launch sums and launch_accumulate.
   const char* film = std::getenv("PENUMBRA_WAVEFRONT_FILM");
   film_direct_ = !(film && std::string(film) == "0");
-  // PENUMBRA_SHADOW_ORDER=auto|direction|queue: the shadow queue traced in direction order where rays are long
-  // (kShadowOrderMinVisits), always, or never. Only the fused shadow stage reads the order.
-  const char* env_order = std::getenv("PENUMBRA_SHADOW_ORDER");
-  const std::string order = env_order ? env_order : "auto";
-  if (order != "auto" && order != "direction" && order != "queue")
-    throw std::runtime_error("PENUMBRA_SHADOW_ORDER must be auto, direction or queue, not '" + order + "'");
+  // The shadow queue traced in direction order where rays are long (kShadowOrderMinVisits), always, or never
+  // (`setting`, from the environment). Only the fused shadow stage reads the order.
   const double visits = trace_->sah_visits_per_ray();
   char buf[160];
   if (!(fuse_shadow_ && trace_->offers_shadow_apply())) {
     order_shadow_ = false;
     order_reason_ = "queue order (the trace stage does not fuse tracing and applying shadow rays)";
-  } else if (order != "auto") {
-    order_shadow_ = order == "direction";
-    order_reason_ = order + " order (PENUMBRA_SHADOW_ORDER)";
+  } else if (setting.mode != ShadowOrderSetting::Mode::Auto) {
+    order_shadow_ = setting.mode == ShadowOrderSetting::Mode::Direction;
+    order_reason_ = std::string(order_shadow_ ? "direction" : "queue") + " order (PENUMBRA_SHADOW_ORDER)";
   } else {
     order_shadow_ = visits >= kShadowOrderMinVisits;
     std::snprintf(buf, sizeof buf, "%s order (auto: rays visit %.1f nodes, %s %.0f)",
@@ -370,6 +369,8 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
                   kShadowOrderMinVisits);
     order_reason_ = buf;
   }
+  if (order_shadow_ && !setting.reverse) order_reason_ += ", traced forward (PENUMBRA_SHADOW_REVERSE=0)";
+  view_.shadow_order.reverse = setting.reverse ? 1u : 0u;
   if (order_shadow_) {
     check(cudaMemset(view_.shadow_order.cell_count, 0, kShadowCells * sizeof(uint32_t)), "the direction cells");
   } else {

@@ -1,7 +1,6 @@
 // wavefront_shadow.h's kernel: the shadow queue traced by the cuda traversal and applied in one pass.
 #include "backends/wavefront/wavefront_shadow.h"
 
-#include <cstdlib>
 #include <stdexcept>
 #include <string>
 
@@ -15,14 +14,14 @@ namespace {
 
 template <int kMinBlocks>
 __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks)
-    shadow_apply_kernel(BvhView bvh, SceneView scene, const WavefrontView* view, bool ordered, bool reverse) {
+    shadow_apply_kernel(BvhView bvh, SceneView scene, const WavefrontView* view, bool ordered) {
   const WavefrontView& w = *view;
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= *w.shadow.count) return;
   const uint32_t j = ordered ? w.shadow_order.order[i] : i;  // wavefront.h's ShadowOrder
   float tmax;
   Ray ray = load_trace_ray(w.shadow.rays + j, &tmax);
-  if (reverse) ray = reversed_shadow_ray(ray, &tmax);
+  if (ordered && w.shadow_order.reverse) ray = reversed_shadow_ray(ray, &tmax);
   apply_shadow_result(j, w, bvh_occluded(bvh, &scene, ray, tmax));
 }
 
@@ -36,15 +35,9 @@ void launch_shadow_apply(const BvhView& bvh, const SceneView& scene, const Wavef
   const unsigned blocks = (capacity + threads - 1) / threads;
   if (blocks == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  // PENUMBRA_SHADOW_REVERSE=0: ordered queries traced forward (a measurement's knob).
-  static const bool reverse_ordered = [] {
-    const char* env = std::getenv("PENUMBRA_SHADOW_REVERSE");
-    return !(env && std::string(env) == "0");
-  }();
-  const bool reverse = ordered && reverse_ordered;
   // Compiled for the trace kernels' occupancy (trace_kernels.h).
   with_trace_min_blocks([&](auto b) {
-    shadow_apply_kernel<decltype(b)::value><<<blocks, threads, 0, s>>>(bvh, scene, view, ordered, reverse);
+    shadow_apply_kernel<decltype(b)::value><<<blocks, threads, 0, s>>>(bvh, scene, view, ordered);
   });
   const cudaError_t e = cudaGetLastError();
   if (e != cudaSuccess)

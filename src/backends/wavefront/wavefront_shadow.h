@@ -14,7 +14,7 @@ namespace pn {
 // to the wavefront's WavefrontView in device memory (restir's primary pass sets its RestirFrame per render call,
 // after a CUDA graph holding this launch is recorded); `capacity` bounds the shadow queue's device count.
 // `ordered`: the queue's ShadowOrder holds this queue's order (wavefront.h); its queries are then traced in that
-// order, each from the light's end back (reversed_shadow_ray).
+// order, each from the light's end back (reversed_shadow_ray) where ShadowOrder::reverse says so.
 void launch_shadow_apply(const BvhView& bvh, const SceneView& scene, const WavefrontView* view, uint32_t capacity,
                          bool ordered, void* stream);
 
