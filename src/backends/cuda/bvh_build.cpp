@@ -270,17 +270,19 @@ double sah_visits_per_ray(const BvhHost& b, const std::vector<EdgeProducts>& fac
   if (b.items.empty()) return 0.0;
   std::vector<EdgeProducts> mesh(b.nodes.size());
   std::vector<bool> mesh_done(b.nodes.size(), false);
-  float xy[4], zlo, zhi;
-  EdgeProducts root;  // the top level's root box: its children's union, or its one item's mesh box in world space
+  // The top level's root box: its children's union, or, where the root is one item's leaf, that item's mesh box
+  // in world space.
+  int32_t top = b.root;
   EdgeProducts root_faces = kIdentityFaces;
-  if (b.root >= 0) {
-    root_box(b.nodes[size_t(b.root)], xy, &zlo, &zhi);
-  } else {
-    const uint32_t item = b.items[bvh_leaf_first(b.root)];
+  if (top < 0) {
+    const uint32_t item = b.items[bvh_leaf_first(top)];
     if ((item & kBvhItemSphere) || b.instances[item].root < 0) return 0.0;
-    root_box(b.nodes[size_t(b.instances[item].root)], xy, &zlo, &zhi);
+    top = b.instances[item].root;
     root_faces = faces[item];
   }
+  float xy[4], zlo, zhi;
+  root_box(b.nodes[size_t(top)], xy, &zlo, &zhi);
+  EdgeProducts root;
   root.add(xy, zlo, zhi);
   const double area = root.area(root_faces);
   return area > 0.0 ? top_areas(b, b.root, faces, mesh, mesh_done) / area : 0.0;
