@@ -346,7 +346,7 @@ PN_FN PathState start_path(const Camera& camera, int px, int py, uint32_t sample
 // The path's ray escaped: the environment's (or background's) radiance, weighted
 // as emission found by a BSDF sample. The path ends.
 template <uint32_t kFeatures = kAllFeatures>
-PN_HD void on_miss(PathState& st, const SceneView& scene, const IntegratorSettings& s) {
+PN_FN void on_miss(PathState& st, const SceneView& scene, const IntegratorSettings& s) {
   const bool nee = strategy_uses_nee(s.strategy);
   const bool mis = nee && s.mis != Mis::None;
   const Vec3 Le = escaped_radiance<kFeatures>(scene, st.ray.d);

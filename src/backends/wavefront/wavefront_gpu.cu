@@ -109,7 +109,8 @@ __global__ void __launch_bounds__(kBlock) shadow_order_kernel() {
 
 // Two resident blocks per SM: at most 128 registers a thread (the shading alone would take 181 and leave one
 // block of 8 warps per SM). Measured on the H200 (bench, 1080p, solid-angle): cornell-sphere 2.71 -> 2.59 ms,
-// sponza 13.47 -> 13.07 ms a sample.
+// sponza 13.47 -> 13.07 ms a sample. Three blocks (80 registers, 1.9 KB of spill stores) lost (session 29:
+// cornell-sphere 1.86 -> 2.38, sponza 9.35 -> 10.34).
 template <uint32_t kLevel>
 __global__ void __launch_bounds__(kBlock, 2) shade_kernel(int cur) {
   const WaveParams& p = WP();
