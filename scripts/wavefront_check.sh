@@ -164,6 +164,22 @@ for scene in cornell-sphere sponza; do
     record "$scene: shadow order renders" 1
   fi
 done
+# The bounces' closest-hit rays by direction and origin cells (wavefront.h's RayOrder; auto picks it as the shadow
+# order), their hits shaded in that order: each path's steps are the same, so the image is queue order's byte for
+# byte.
+for scene in cornell-sphere sponza; do
+  listed "$scene" || continue
+  n=${scene}_ray_order
+  if PENUMBRA_RAY_ORDER=queue render "${n}_queue" "$scene" solid-angle power 7 --backend optix --wavefront \
+       --traversal cuda &&
+     PENUMBRA_RAY_ORDER=cells render "${n}_cells" "$scene" solid-angle power 7 --backend optix --wavefront \
+       --traversal cuda; then
+    cmp -s "$out/${n}_queue.exr" "$out/${n}_cells.exr"
+    record "$scene: the bounces' rays in cell order == queue order, byte for byte" $?
+  else
+    record "$scene: ray order renders" 1
+  fi
+done
 if listed many-spheres; then
   render restir_passes_cpu many-spheres solid-angle power 0 --backend cpu --light-selection restir \
     --set defaults.lights=200 &&

@@ -304,7 +304,7 @@ TEST(ShadowOrder, PlacesEveryQueryOnceInCellOrder) {
     // Clustered, as shadow rays toward one light: a few directions, a little spread.
     const Vec3 axis = k % 3 == 0 ? Vec3(0.f, 1.f, 0.f) : normalize(Vec3(1.f, -0.5f, float(k % 5)));
     dirs[k] = normalize(axis + 0.05f * sample_uniform_sphere(rng.uniform2()));
-    shadow_order_count(o, k, dirs[k]);
+    queue_order_count(o, k, shadow_direction_cell(dirs[k]));
   }
   uint32_t start = 0;  // the GPU's scan kernel, serially
   for (uint32_t c = 0; c < kShadowCells; ++c) {
@@ -312,7 +312,7 @@ TEST(ShadowOrder, PlacesEveryQueryOnceInCellOrder) {
     start += cell_count[c];
   }
   ASSERT_EQ(start, n);
-  for (uint32_t j = 0; j < n; ++j) shadow_order_place(j, o);
+  for (uint32_t j = 0; j < n; ++j) queue_order_place(j, o);
   std::vector<uint32_t> placed(n, 0);
   for (uint32_t i = 0; i < n; ++i) {
     ASSERT_LT(order[i], n);
@@ -331,12 +331,12 @@ TEST(ShadowOrder, PlacesEveryQueryOnceInCellOrder) {
 // The shadow order's environment: unset is auto, traced from the light; a misspelt order is an error that names
 // the variable and the value (the GPU's wavefront reads it before allocating anything).
 TEST(ShadowOrder, EnvironmentSettingAndItsErrors) {
-  EXPECT_EQ(shadow_order_setting(nullptr, nullptr).mode, ShadowOrderSetting::Mode::Auto);
+  EXPECT_EQ(shadow_order_setting(nullptr, nullptr).mode, OrderMode::Auto);
   EXPECT_TRUE(shadow_order_setting(nullptr, nullptr).reverse);
-  EXPECT_EQ(shadow_order_setting("auto", nullptr).mode, ShadowOrderSetting::Mode::Auto);
-  EXPECT_EQ(shadow_order_setting("direction", "1").mode, ShadowOrderSetting::Mode::Direction);
+  EXPECT_EQ(shadow_order_setting("auto", nullptr).mode, OrderMode::Auto);
+  EXPECT_EQ(shadow_order_setting("direction", "1").mode, OrderMode::Ordered);
   EXPECT_TRUE(shadow_order_setting("direction", "1").reverse);
-  EXPECT_EQ(shadow_order_setting("queue", nullptr).mode, ShadowOrderSetting::Mode::Queue);
+  EXPECT_EQ(shadow_order_setting("queue", nullptr).mode, OrderMode::Queue);
   EXPECT_FALSE(shadow_order_setting("direction", "0").reverse);
   for (const char* bad : {"Direction", "", "directions", "1"}) {
     try {
@@ -349,6 +349,55 @@ TEST(ShadowOrder, EnvironmentSettingAndItsErrors) {
       EXPECT_EQ(what.find('\n'), std::string::npos) << what;
     }
   }
+  EXPECT_EQ(ray_order_setting(nullptr), OrderMode::Auto);
+  EXPECT_EQ(ray_order_setting("cells"), OrderMode::Ordered);
+  EXPECT_EQ(ray_order_setting("queue"), OrderMode::Queue);
+  for (const char* bad : {"direction", "", "cell"}) {
+    try {
+      ray_order_setting(bad);
+      ADD_FAILURE() << "no error for '" << bad << "'";
+    } catch (const std::runtime_error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("PENUMBRA_RAY_ORDER must be auto, cells or queue, not '" + std::string(bad) + "'"),
+                std::string::npos)
+          << what;
+    }
+  }
+}
+
+// The bounces' ray order (wavefront.h's RayOrder): a ray's cell is its direction's octahedral cell (8 x 8), then
+// its origin's Morton cell (8 x 8 x 8 of the scene's box); origins outside the box clamp to its border cells.
+TEST(RayOrder, CellsAreDirectionThenOriginCells) {
+  RayOrder o;
+  o.lo = Vec3(-1.f, 0.f, 2.f);
+  const Vec3 hi(3.f, 8.f, 4.f);
+  const float side = float(1u << kRayOriginBits);
+  o.scale = Vec3(side / (hi.x - o.lo.x), side / (hi.y - o.lo.y), side / (hi.z - o.lo.z));
+  Rng rng(5, 0, 1);
+  std::vector<uint32_t> seen(kRayCells, 0);
+  for (int i = 0; i < 2000000; ++i) {
+    const Vec3 u(rng.uniform(), rng.uniform(), rng.uniform());
+    const Vec3 p = o.lo + (hi - o.lo) * u;
+    const Vec3 d = sample_uniform_sphere(rng.uniform2());
+    const uint32_t c = ray_order_cell(o, Ray(p, d));
+    ASSERT_LT(c, kRayCells);
+    ++seen[c];
+    ASSERT_EQ(c >> (3 * kRayOriginBits), octahedral_cell(d, kRayDirectionBits));
+    // The origin's cell: Morton bits x, y, z from the lowest, each axis's index in the box.
+    const uint32_t m = c & ((1u << (3 * kRayOriginBits)) - 1u);
+    for (int a = 0; a < 3; ++a) {
+      uint32_t idx = 0;
+      for (uint32_t b = 0; b < kRayOriginBits; ++b) idx |= ((m >> (3 * b + a)) & 1u) << b;
+      ASSERT_EQ(idx, std::min(uint32_t(u[a] * side), uint32_t(side) - 1u)) << "axis " << a;
+    }
+  }
+  uint32_t used = 0;
+  for (uint32_t n : seen) used += n > 0;
+  EXPECT_EQ(used, kRayCells);  // every cell reached by uniform origins and directions
+  // Outside the box: the border cells; a NaN direction: a cell all the same.
+  EXPECT_EQ(ray_order_cell(o, Ray(Vec3(-9.f, -9.f, -9.f), Vec3(0.f, 0.f, 1.f))) & 511u, 0u);
+  EXPECT_EQ(ray_order_cell(o, Ray(Vec3(9.f, 99.f, 9.f), Vec3(0.f, 0.f, 1.f))) & 511u, 511u);
+  EXPECT_LT(ray_order_cell(o, Ray(Vec3(0.f), Vec3(std::nanf(""), 0.f, 0.f))), kRayCells);
 }
 
 // The GPU's ordered shadow queries are traced from the light back (reversed_shadow_ray): every built-in scene's

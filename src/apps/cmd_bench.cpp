@@ -119,7 +119,7 @@ json bench_json(const char* tool, const std::string& device,
   j["device"] = device;
   json dev = json::object();
   for (const auto& kv : info)
-    if (kv.first != "shadow_order") dev[kv.first] = kv.second;  // per scene (scene_builds), not the device's
+    if (kv.first != "shadow_order" && kv.first != "ray_order") dev[kv.first] = kv.second;  // per scene, below
   dev["host_cpu"] = cpu_model();
   j["device_info"] = dev;
   return j;
@@ -155,6 +155,7 @@ struct SceneBuild {
   double light_bvh_ms = 0, light_bvh_mib = 0;  // host build of the light BVH, its size
   SceneBuildStats stats;
   std::string shadow_order;  // the wavefront's order of shadow queries for this scene, and why (GPU)
+  std::string ray_order;     // the same for the bounces' closest-hit rays
 };
 
 double mib(uint64_t bytes) { return double(bytes) / (1024.0 * 1024.0); }
@@ -396,6 +397,7 @@ int run_bench(const BenchArgs& a) {
       b.stats = backend->scene_build_stats();
       for (const auto& kv : backend->device_info())
         if (kv.first == "shadow_order") b.shadow_order = kv.second;
+        else if (kv.first == "ray_order") b.ray_order = kv.second;
       builds.push_back(b);
     }
 
@@ -578,6 +580,7 @@ int run_bench(const BenchArgs& a) {
         o["estimated_mib"] = mib(s.estimated_bytes);  // checked against free memory before building
       }
       if (!b.shadow_order.empty()) o["shadow_order"] = b.shadow_order;
+      if (!b.ray_order.empty()) o["ray_order"] = b.ray_order;
       sb.push_back(o);
     }
     j["scene_builds"] = sb;

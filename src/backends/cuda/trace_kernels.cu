@@ -34,15 +34,16 @@ __device__ __forceinline__ Ray load_ray(const TraceRay* rays, uint32_t i, float*
 template <int kMinBlocks>
 __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks)
     closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays, uint32_t count, const uint32_t* device_count,
-                   HitRecord* hits) {
+                   HitRecord* hits, const uint32_t* order) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (device_count) count = *device_count;
   if (i >= count) return;
+  const uint32_t j = order ? order[i] : i;
   float tmax;
-  const Ray ray = load_ray(rays, i, &tmax);
+  const Ray ray = load_ray(rays, j, &tmax);
   HitRecord h;
   if (!bvh_intersect(bvh, &scene, ray, tmax, &h)) h.instance = kTraceMiss;
-  hits[i] = h;
+  hits[j] = h;
 }
 
 // Every thread of a warp reaches the ballot; its lane 0 writes the warp's word.
@@ -140,7 +141,7 @@ void CudaTraversal::trace_closest(const TraceRay* rays, uint32_t count, HitRecor
                                   void* stream) const {
   if (count == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_closest(blocks(count), s, view_, scene, rays, count, nullptr, hits);
+  launch_closest(blocks(count), s, view_, scene, rays, count, nullptr, hits, nullptr);
   check(cudaGetLastError(), "launching the closest-hit kernel");
 }
 
@@ -153,10 +154,10 @@ void CudaTraversal::trace_shadow(const TraceRay* rays, uint32_t count, uint32_t*
 }
 
 void CudaTraversal::trace_closest(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity,
-                                  HitRecord* hits, const SceneView& scene, void* stream) const {
+                                  HitRecord* hits, const SceneView& scene, void* stream, const uint32_t* order) const {
   if (capacity == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_closest(blocks(capacity), s, view_, scene, rays, capacity, device_count, hits);
+  launch_closest(blocks(capacity), s, view_, scene, rays, capacity, device_count, hits, order);
   check(cudaGetLastError(), "launching the closest-hit kernel");
 }
 

@@ -49,8 +49,10 @@ class CudaTraversal {
                     void* stream) const;
   // The same over a queue whose length is in device memory (`device_count`, at most `capacity`): the launch's
   // size is fixed, so a CUDA graph can hold it (the wavefront, backends/wavefront); threads past the count exit.
+  // With `order` (device memory, a permutation of the queue's positions), thread i traces ray order[i] and writes
+  // its hit at order[i]: the same hits, traced in another order.
   void trace_closest(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity, HitRecord* hits,
-                     const SceneView& scene, void* stream) const;
+                     const SceneView& scene, void* stream, const uint32_t* order = nullptr) const;
   void trace_shadow(const TraceRay* rays, const uint32_t* device_count, uint32_t capacity, uint32_t* blocked_bits,
                     const SceneView& scene, void* stream) const;
 

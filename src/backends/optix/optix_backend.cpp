@@ -113,7 +113,8 @@ class OptixBackendImpl final : public OptixBackend {
             {"wavefront_paths", wavefront_ ? std::to_string(wavefront_->capacity()) : "0"},
             {"wavefront_path_bytes", std::to_string(kWavefrontBytesPerPath)},
             {"wavefront_pool", wavefront_ ? format_bytes(wavefront_->device_bytes()) : "0"},
-            {"shadow_order", wavefront_ ? wavefront_->shadow_order_reason() : "queue order (megakernel)"}};
+            {"shadow_order", wavefront_ ? wavefront_->shadow_order_reason() : "queue order (megakernel)"},
+            {"ray_order", wavefront_ ? wavefront_->ray_order_reason() : "queue order (megakernel)"}};
   }
 
   RenderStats last_render_stats() const override { return stats_; }
@@ -362,7 +363,8 @@ class OptixBackendImpl final : public OptixBackend {
     else stage = make_cuda_trace_stage(scene_, base_params_.scene);
     wavefront_ = std::make_unique<WavefrontGpu>(std::move(stage), wavefront_default_paths(),
                                                 props_.multiProcessorCount);
-    std::fprintf(stderr, "wavefront on GPU %d: shadow rays in %s\n", device_, wavefront_->shadow_order_reason().c_str());
+    std::fprintf(stderr, "wavefront on GPU %d: shadow rays in %s; the bounces' rays in %s\n", device_,
+                 wavefront_->shadow_order_reason().c_str(), wavefront_->ray_order_reason().c_str());
   }
 
   void launch_trace(const LaunchParams& p, uint32_t raygen) {

@@ -90,65 +90,22 @@ struct ShadowQueue {
   uint32_t* count = nullptr;
 };
 
-// The shadow queue in the order of its rays' directions (session 28): shadow rays end on the lights, so rays of
-// nearly one direction toward one light run along nearly one line and traverse nearly the same nodes, where rays
-// in queue order (their paths' order: scattered shading points after the first bounce) share little. shade
-// counts each query into its direction's cell (cell_count) and keeps its cell and its rank there; a scan turns the
-// counts into cells' first positions (cell_start) and empties the counts; shadow_order_place puts each query's
-// queue position at its place in `order`; the shadow stage traces order[0], order[1], ... Null pointers: queue
-// order. Which query is traced when changes no answer (each names its own path), so the image is the same.
-constexpr uint32_t kShadowCellBits = 7;  // 128 x 128 octahedral cells of the sphere of directions
-// The queries of vertices from this depth on are ordered: the camera's hits are in pixel order, whose shadow rays
-// are coherent already (its cost is then not paid back: session 28, cornell-sphere).
-constexpr int kShadowOrderDepth = 1;
-constexpr uint32_t kShadowCells = 1u << (2 * kShadowCellBits);
-struct ShadowOrder {
-  uint32_t* cell_count = nullptr;  // kShadowCells
-  uint32_t* cell_start = nullptr;  // kShadowCells
-  uint32_t* cell = nullptr;        // per queue position: its direction's cell
-  uint32_t* rank = nullptr;        // per queue position: the queries counted into its cell before it
+// A queue traced in the order of a key instead of its own (the order its pushes made): the stage that pushes an
+// entry counts it into its key's cell (cell_count) and keeps its cell and its rank there; a scan turns the counts
+// into cells' first positions (cell_start) and empties the counts; queue_order_place puts each entry's queue
+// position at its place in `order`; the trace stage traces order[0], order[1], ... Null pointers: queue order.
+// Which entry is traced when changes no answer (each names its own path), so the image is the same.
+struct QueueOrder {
+  uint32_t* cell_count = nullptr;  // one a cell
+  uint32_t* cell_start = nullptr;  // one a cell
+  uint32_t* cell = nullptr;        // per queue position: its key's cell
+  uint32_t* rank = nullptr;        // per queue position: the entries counted into its cell before it
   uint32_t* order = nullptr;       // per position in the traced order: the queue position
-  uint32_t reverse = 0;            // 1: ordered queries traced from the light back (reversed_shadow_ray)
 };
 
-// The shadow order's environment: PENUMBRA_SHADOW_ORDER = auto (unset: the same) | direction | queue, and
-// PENUMBRA_SHADOW_REVERSE = 0 to trace ordered queries forward (measurement knobs). Any other order is an error
-// naming the variable and the value.
-struct ShadowOrderSetting {
-  enum class Mode { Auto, Direction, Queue } mode = Mode::Auto;
-  bool reverse = true;
-};
-inline ShadowOrderSetting shadow_order_setting(const char* order, const char* reverse) {
-  ShadowOrderSetting s;
-  const std::string o = order ? order : "auto";
-  if (o == "direction") s.mode = ShadowOrderSetting::Mode::Direction;
-  else if (o == "queue") s.mode = ShadowOrderSetting::Mode::Queue;
-  else if (o != "auto")
-    throw std::runtime_error("PENUMBRA_SHADOW_ORDER must be auto, direction or queue, not '" + o + "'");
-  s.reverse = !(reverse && std::string(reverse) == "0");
-  return s;
-}
-
-// The cell of unit direction d: its point on the octahedron |x| + |y| + |z| = 1, the lower half folded out over
-// the square's corners, on a grid of 2^kShadowCellBits a side.
-PN_FN uint32_t shadow_direction_cell(Vec3 d) {
-  const float a = std::fabs(d.x) + std::fabs(d.y) + std::fabs(d.z);
-  float u = d.x / a, v = d.y / a;
-  if (d.z < 0.f) {
-    const float fu = (1.f - std::fabs(v)) * (u < 0.f ? -1.f : 1.f);
-    v = (1.f - std::fabs(u)) * (v < 0.f ? -1.f : 1.f);
-    u = fu;
-  }
-  constexpr float kSide = float(1u << kShadowCellBits);
-  const uint32_t iu = uint32_t(pn_min(pn_max((u * 0.5f + 0.5f) * kSide, 0.f), kSide - 1.f));
-  const uint32_t iv = uint32_t(pn_min(pn_max((v * 0.5f + 0.5f) * kSide, 0.f), kSide - 1.f));
-  return iu << kShadowCellBits | iv;  // a NaN direction lands in cell 0
-}
-
-// Query kq (its shadow ray's unit direction d) counted into its cell, its rank there kept (shade).
-PN_FN void shadow_order_count(const ShadowOrder& o, uint32_t kq, Vec3 d) {
-  const uint32_t c = shadow_direction_cell(d);
-  o.cell[kq] = c;
+// Entry k counted into cell c, its rank there kept (the pushing stage).
+PN_FN void queue_order_count(const QueueOrder& o, uint32_t k, uint32_t c) {
+  o.cell[k] = c;
 #if defined(__CUDA_ARCH__)
   // One atomic per cell a warp: lanes of one warp often share a cell, and one atomic a lane, queued on the few
   // cells around a small light's direction, was part of what the first form cost (cornell-sphere, session 28).
@@ -157,16 +114,103 @@ PN_FN void shadow_order_count(const ShadowOrder& o, uint32_t kq, Vec3 d) {
   uint32_t first = 0;
   if (lane == leader) first = atomicAdd(o.cell_count + c, uint32_t(__popc(int(peers))));
   first = __shfl_sync(peers, first, leader);
-  o.rank[kq] = first + uint32_t(__popc(int(peers & ((1u << lane) - 1u))));
+  o.rank[k] = first + uint32_t(__popc(int(peers & ((1u << lane) - 1u))));
 #else
-  o.rank[kq] = queue_push(o.cell_count + c);
+  o.rank[k] = queue_push(o.cell_count + c);
 #endif
 }
 
-// Query j (< the shadow queue's count) to its place in the traced order, once cell_start holds the scan.
-PN_FN void shadow_order_place(uint32_t j, const ShadowOrder& o) {
+// Entry j (< its queue's count) to its place in the traced order, once cell_start holds the scan.
+PN_FN void queue_order_place(uint32_t j, const QueueOrder& o) {
   o.order[o.cell_start[o.cell[j]] + o.rank[j]] = j;
 }
+
+// The cell of unit direction d: its point on the octahedron |x| + |y| + |z| = 1, the lower half folded out over
+// the square's corners, on a grid of 2^bits a side.
+PN_FN uint32_t octahedral_cell(Vec3 d, uint32_t bits) {
+  const float a = std::fabs(d.x) + std::fabs(d.y) + std::fabs(d.z);
+  float u = d.x / a, v = d.y / a;
+  if (d.z < 0.f) {
+    const float fu = (1.f - std::fabs(v)) * (u < 0.f ? -1.f : 1.f);
+    v = (1.f - std::fabs(u)) * (v < 0.f ? -1.f : 1.f);
+    u = fu;
+  }
+  const float side = float(1u << bits);
+  const uint32_t iu = uint32_t(pn_min(pn_max((u * 0.5f + 0.5f) * side, 0.f), side - 1.f));
+  const uint32_t iv = uint32_t(pn_min(pn_max((v * 0.5f + 0.5f) * side, 0.f), side - 1.f));
+  return iu << bits | iv;  // a NaN direction lands in cell 0
+}
+
+// The shadow queue in the order of its rays' directions (session 28): shadow rays end on the lights, so rays of
+// nearly one direction toward one light run along nearly one line and traverse nearly the same nodes, where rays
+// in queue order (their paths' order: scattered shading points after the first bounce) share little. shade
+// counts each query into its direction's cell.
+constexpr uint32_t kShadowCellBits = 7;  // 128 x 128 octahedral cells of the sphere of directions
+// The queries of vertices from this depth on are ordered: the camera's hits are in pixel order, whose shadow rays
+// are coherent already (its cost is then not paid back: session 28, cornell-sphere).
+constexpr int kShadowOrderDepth = 1;
+constexpr uint32_t kShadowCells = 1u << (2 * kShadowCellBits);
+struct ShadowOrder : QueueOrder {
+  uint32_t reverse = 0;  // 1: ordered queries traced from the light back (reversed_shadow_ray)
+};
+
+PN_FN uint32_t shadow_direction_cell(Vec3 d) { return octahedral_cell(d, kShadowCellBits); }
+
+// The closest-hit rays of the bounces in the order of their directions, then their origins (session 29): the
+// rays shade makes go from scattered shading points in directions the BSDFs draw, so a warp's rays in queue order
+// share few nodes; grouped by direction (8 x 8 octahedral cells) and, within one, by where they start (a Morton
+// order of 8 x 8 x 8 cells of the scene's box), they share more: a model of the warps' lock step put the work
+// issued on Sponza's first two bounces at 1080p 19% lower (docs/results/h200-session29/analysis), and the H200
+// traced them 16% faster (its closest hits 5.13 -> 4.35 ms a sample; counting, scanning and placing cost 0.37).
+// Finer keys would save more (16 x 16 directions: 23%) but need a scan of 2^17 cells and more. The camera's rays
+// stay in pixel order, coherent already. Only the tracing follows the order: shade reads its queue in queue
+// order, whose slots follow one another (shading in the traced order scattered the pool's reads: Sponza's
+// shading 2.44 -> 5.17 ms).
+constexpr uint32_t kRayDirectionBits = 3, kRayOriginBits = 3;
+constexpr uint32_t kRayCells = 1u << (2 * kRayDirectionBits + 3 * kRayOriginBits);
+struct RayOrder : QueueOrder {
+  Vec3 lo;     // the scene's box: origins' cells are (o - lo) * scale, clamped to the grid
+  Vec3 scale;  // 2^kRayOriginBits / the box's extent (0 on a flat axis)
+};
+
+// The cell of a ray: its direction's octahedral cell, then its origin's Morton cell.
+PN_FN uint32_t ray_order_cell(const RayOrder& o, const Ray& r) {
+  constexpr float kSide = float(1u << kRayOriginBits);
+  auto axis = [](float v) {  // kRayOriginBits bits, spread to every third bit
+    uint32_t q = uint32_t(pn_min(pn_max(v, 0.f), kSide - 1.f));
+    q = (q | (q << 4)) & 0x0C3u;
+    q = (q | (q << 2)) & 0x249u;
+    return q;
+  };
+  static_assert(kRayOriginBits <= 3, "axis() spreads three bits");
+  const Vec3 q = (r.o - o.lo) * o.scale;
+  const uint32_t morton = axis(q.x) | axis(q.y) << 1 | axis(q.z) << 2;
+  return octahedral_cell(r.d, kRayDirectionBits) << (3 * kRayOriginBits) | morton;
+}
+
+// The queue orders' environment (measurement knobs): PENUMBRA_SHADOW_ORDER = auto (unset: the same) | direction |
+// queue, PENUMBRA_SHADOW_REVERSE = 0 to trace ordered queries forward, PENUMBRA_RAY_ORDER = auto | cells | queue.
+// Any other order is an error naming the variable and the value.
+enum class OrderMode { Auto, Ordered, Queue };
+inline OrderMode order_mode(const char* variable, const char* value, const char* ordered) {
+  const std::string v = value ? value : "auto";
+  if (v == ordered) return OrderMode::Ordered;
+  if (v == "queue") return OrderMode::Queue;
+  if (v != "auto")
+    throw std::runtime_error(std::string(variable) + " must be auto, " + ordered + " or queue, not '" + v + "'");
+  return OrderMode::Auto;
+}
+struct ShadowOrderSetting {
+  OrderMode mode = OrderMode::Auto;
+  bool reverse = true;
+};
+inline ShadowOrderSetting shadow_order_setting(const char* order, const char* reverse) {
+  ShadowOrderSetting s;
+  s.mode = order_mode("PENUMBRA_SHADOW_ORDER", order, "direction");
+  s.reverse = !(reverse && std::string(reverse) == "0");
+  return s;
+}
+inline OrderMode ray_order_setting(const char* order) { return order_mode("PENUMBRA_RAY_ORDER", order, "cells"); }
 
 // The same shadow segment traced from its far end (on the light) back toward the shading point: ordered by
 // direction, rays toward one light then also start together, and share the nodes around the light first
@@ -204,6 +248,7 @@ struct WavefrontView {
   HitRecord* hits = nullptr;        // hits[j]: ray[cur].rays[j]'s closest hit, instance kTraceMiss for a miss
   uint32_t* blocked_bits = nullptr;  // bit j: shadow.rays[j] is blocked (trace_bit_words(capacity) words)
   ShadowOrder shadow_order;          // null pointers: the shadow queue traced in queue order
+  RayOrder ray_order;                // null pointers: the bounces' ray queues traced in queue order
   uint32_t capacity = 0;
   RestirFrame restir;
 };
@@ -214,11 +259,12 @@ constexpr uint64_t kWavefrontBytesPerPath =
     2 * (sizeof(TraceRay) + sizeof(uint32_t)) +                                                 // ray queues
     sizeof(TraceRay) + sizeof(uint32_t) + sizeof(Vec3) +                                        // shadow queue
     sizeof(HitRecord) +                                                                         // hits
-    3 * sizeof(uint32_t);                                                                       // ShadowOrder
-// The whole pool of `capacity` paths, blocked bits, the three counters and the direction cells included.
+    3 * sizeof(uint32_t) +                                                                      // ShadowOrder
+    3 * sizeof(uint32_t);                                                                       // RayOrder
+// The whole pool of `capacity` paths, blocked bits, the three counters and the orders' cells included.
 PN_FN uint64_t wavefront_bytes(uint32_t capacity) {
   return uint64_t(capacity) * kWavefrontBytesPerPath + uint64_t(trace_bit_words(capacity)) * 4u + 3u * 4u +
-         2u * kShadowCells * 4u;
+         2u * kShadowCells * 4u + 2u * kRayCells * 4u;
 }
 
 // --- 32-byte records -------------------------------------------------------------------------------------------
@@ -414,7 +460,7 @@ PN_FN void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
   if (query) kq = queue_push(w.shadow.count);  // the compiler aggregates these per warp (a pair of pushes
   if (next) kn = queue_push(out.count);        // aggregated by hand, both atomics in flight at once, was slower)
   if (query) {
-    if (ordered) shadow_order_count(w.shadow_order, kq, q.ray.d);
+    if (ordered) queue_order_count(w.shadow_order, kq, shadow_direction_cell(q.ray.d));
     store_trace_ray(w.shadow.rays + kq, q.ray, q.tmax);
     const bool reservoir = q.kind == ShadowKind::Reservoir;
     w.shadow.slot[kq] = reservoir ? slot | kReservoirQuery : slot;
@@ -423,6 +469,7 @@ PN_FN void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
   if (next) {
     store_trace_ray(out.rays + kn, st.ray, kInf);
     out.slot[kn] = slot;
+    if (w.ray_order.cell_count) queue_order_count(w.ray_order, kn, ray_order_cell(w.ray_order, st.ray));
   }
   const uint32_t rays = uint32_t(query) + uint32_t(next);
   store_state(w, slot, st, prev);

@@ -14,6 +14,7 @@
 #include "backends/cuda/trace_kernels.h"
 #include "backends/optix/launch_params.h"
 #include "backends/optix/launch_sums.h"
+#include "backends/probe_rays.h"
 #include "backends/wavefront/wavefront_shadow.h"
 
 namespace pn {
@@ -61,9 +62,9 @@ __global__ void __launch_bounds__(kBlock) apply_kernel() {
 
 __global__ void begin_bounce_kernel(int next) { begin_bounce(WP().view, next); }
 
-// The direction cells' counts to their first positions in the traced order (exclusive prefix sums, one block;
+// A queue order's cell counts to their first positions in the traced order (exclusive prefix sums, one block;
 // each warp's loads and stores are 32 consecutive words: the first form, 16 consecutive cells a thread, took 32 us
-// on the H200), the counts emptied for the next queue; then each query to its place (wavefront.h's ShadowOrder).
+// on the H200), the counts emptied for the next queue; then each entry to its place (wavefront.h's QueueOrder).
 constexpr int kScanThreads = 1024;
 __device__ __forceinline__ uint32_t warp_inclusive_sum(uint32_t v, uint32_t lane) {
   for (uint32_t d = 1; d < 32; d <<= 1) {
@@ -72,9 +73,9 @@ __device__ __forceinline__ uint32_t warp_inclusive_sum(uint32_t v, uint32_t lane
   }
   return v;
 }
-__global__ void __launch_bounds__(kScanThreads) shadow_cells_scan_kernel() {
-  const ShadowOrder& o = WP().view.shadow_order;
-  constexpr uint32_t kWarps = kScanThreads / 32, kPerWarp = kShadowCells / kWarps, kRounds = kPerWarp / 32;
+template <uint32_t kCells>
+__global__ void __launch_bounds__(kScanThreads) cells_scan_kernel(QueueOrder o) {
+  constexpr uint32_t kWarps = kScanThreads / 32, kPerWarp = kCells / kWarps, kRounds = kPerWarp / 32;
   static_assert(kWarps == 32 && kPerWarp % 32 == 0, "a warp's totals scanned by one warp; whole rounds of 32");
   __shared__ uint32_t warp_first[kWarps];
   const uint32_t lane = threadIdx.x & 31u, warp = threadIdx.x >> 5, base = warp * kPerWarp;
@@ -104,7 +105,13 @@ __global__ void __launch_bounds__(kScanThreads) shadow_cells_scan_kernel() {
 __global__ void __launch_bounds__(kBlock) shadow_order_kernel() {
   const WavefrontView& w = WP().view;
   const uint32_t n = *w.shadow.count;
-  for (uint32_t j = first_index(); j < n; j += stride()) shadow_order_place(j, w.shadow_order);
+  for (uint32_t j = first_index(); j < n; j += stride()) queue_order_place(j, w.shadow_order);
+}
+
+__global__ void __launch_bounds__(kBlock) ray_order_kernel(int queue) {
+  const WavefrontView& w = WP().view;
+  const uint32_t n = *w.ray[queue].count;
+  for (uint32_t j = first_index(); j < n; j += stride()) queue_order_place(j, w.ray_order);
 }
 
 // Two resident blocks per SM: at most 128 registers a thread (the shading alone would take 181 and leave one
@@ -239,7 +246,7 @@ __global__ void __launch_bounds__(kBlock) shade_replay_kernel(RestirChunk c, con
 class CudaTraceStage final : public WavefrontTraceStage {
  public:
   CudaTraceStage(const Scene& scene, const SceneView& device_scene)
-      : traversal_(build_bvh(scene)), scene_(device_scene) {}
+      : traversal_(build_bvh(scene)), scene_(device_scene), box_(scene_bounds(scene)) {}
   void bind(const Queues& q) override { q_ = q; }
   void closest(int queue, void* stream) override {
     traversal_.trace_closest(q_.closest_rays[queue], q_.closest_count[queue], q_.capacity, q_.hits, scene_, stream);
@@ -252,12 +259,23 @@ class CudaTraceStage final : public WavefrontTraceStage {
     return true;
   }
   bool offers_shadow_apply() const override { return true; }
+  bool closest_ordered(int queue, const uint32_t* order, void* stream) override {
+    traversal_.trace_closest(q_.closest_rays[queue], q_.closest_count[queue], q_.capacity, q_.hits, scene_, stream,
+                             order);
+    return true;
+  }
+  bool offers_closest_order(Vec3* lo, Vec3* hi) const override {
+    *lo = box_.lo;
+    *hi = box_.hi;
+    return true;
+  }
   double sah_visits_per_ray() const override { return traversal_.stats().sah_visits_per_ray; }
   std::string name() const override { return "cuda"; }
 
  private:
   CudaTraversal traversal_;
   SceneView scene_;
+  Bounds3 box_;
   Queues q_;
 };
 
@@ -305,6 +323,11 @@ WavefrontView carve(char* base, uint32_t capacity, uint64_t* bytes) {
   w.shadow_order.cell = c.take<uint32_t>(capacity);
   w.shadow_order.rank = c.take<uint32_t>(capacity);
   w.shadow_order.order = c.take<uint32_t>(capacity);
+  w.ray_order.cell_count = c.take<uint32_t>(kRayCells);
+  w.ray_order.cell_start = c.take<uint32_t>(kRayCells);
+  w.ray_order.cell = c.take<uint32_t>(capacity);
+  w.ray_order.rank = c.take<uint32_t>(capacity);
+  w.ray_order.order = c.take<uint32_t>(capacity);
   *bytes = c.used();
   return w;
 }
@@ -330,6 +353,7 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   // The environment's shadow order first: a bad value throws before anything is allocated.
   const ShadowOrderSetting setting =
       shadow_order_setting(std::getenv("PENUMBRA_SHADOW_ORDER"), std::getenv("PENUMBRA_SHADOW_REVERSE"));
+  const OrderMode ray_setting = ray_order_setting(std::getenv("PENUMBRA_RAY_ORDER"));
   carve(nullptr, capacity_, &bytes_);
   size_t free_bytes = 0, total = 0;
   check(cudaMemGetInfo(&free_bytes, &total), "cudaMemGetInfo");
@@ -360,8 +384,8 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   if (!(fuse_shadow_ && trace_->offers_shadow_apply())) {
     order_shadow_ = false;
     order_reason_ = "queue order (the trace stage does not fuse tracing and applying shadow rays)";
-  } else if (setting.mode != ShadowOrderSetting::Mode::Auto) {
-    order_shadow_ = setting.mode == ShadowOrderSetting::Mode::Direction;
+  } else if (setting.mode != OrderMode::Auto) {
+    order_shadow_ = setting.mode == OrderMode::Ordered;
     order_reason_ = std::string(order_shadow_ ? "direction" : "queue") + " order (PENUMBRA_SHADOW_ORDER)";
   } else {
     order_shadow_ = visits >= kShadowOrderMinVisits;
@@ -376,6 +400,30 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
     check(cudaMemset(view_.shadow_order.cell_count, 0, kShadowCells * sizeof(uint32_t)), "the direction cells");
   } else {
     view_.shadow_order = ShadowOrder();
+  }
+  // The bounces' rays traced by direction and origin where rays are long (kRayOrderMinVisits), always, or never.
+  Vec3 lo, hi;
+  if (!trace_->offers_closest_order(&lo, &hi)) {
+    order_rays_ = false;
+    ray_order_reason_ = "queue order (the trace stage traces no other order)";
+  } else if (ray_setting != OrderMode::Auto) {
+    order_rays_ = ray_setting == OrderMode::Ordered;
+    ray_order_reason_ = std::string(order_rays_ ? "cell" : "queue") + " order (PENUMBRA_RAY_ORDER)";
+  } else {
+    order_rays_ = visits >= kRayOrderMinVisits;
+    std::snprintf(buf, sizeof buf, "%s order (auto: rays visit %.1f nodes, %s %.0f)",
+                  order_rays_ ? "cell" : "queue", visits, order_rays_ ? "at least" : "under", kRayOrderMinVisits);
+    ray_order_reason_ = buf;
+  }
+  if (order_rays_) {
+    view_.ray_order.lo = lo;
+    const Vec3 ext = hi - lo;
+    constexpr float kSide = float(1u << kRayOriginBits);
+    view_.ray_order.scale = Vec3(ext.x > 0.f ? kSide / ext.x : 0.f, ext.y > 0.f ? kSide / ext.y : 0.f,
+                                 ext.z > 0.f ? kSide / ext.z : 0.f);
+    check(cudaMemset(view_.ray_order.cell_count, 0, kRayCells * sizeof(uint32_t)), "the ray cells");
+  } else {
+    view_.ray_order = RayOrder();
   }
   WavefrontTraceStage::Queues q;
   for (int k = 0; k < 2; ++k) {
@@ -432,11 +480,13 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_p
     camera_kernel<<<grid, kBlock, 0, stream>>>();
     check(cudaGetLastError(), "the camera kernel");
     for (int it = 0, cur = 0; it <= max_depth; ++it, cur ^= 1) {
-      trace_->closest(cur, stream);
+      // The bounces' rays (iteration 1 on; the camera's stay in pixel order) in the order shade counted them into.
+      if (!(order_rays_ && it >= 1 && trace_->closest_ordered(cur, view_.ray_order.order, stream)))
+        trace_->closest(cur, stream);
       // The queries shade made at depth it - 1 (all of this iteration's: a wave's paths move in step).
       const bool ordered = order_shadow_ && it - 1 >= kShadowOrderDepth;
       if (ordered) {
-        shadow_cells_scan_kernel<<<1, kScanThreads, 0, stream>>>();
+        cells_scan_kernel<kShadowCells><<<1, kScanThreads, 0, stream>>>(view_.shadow_order);
         shadow_order_kernel<<<grid, kBlock, 0, stream>>>();
         check(cudaGetLastError(), "the shadow queue's order");
       }
@@ -457,6 +507,11 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_p
           break;
       }
       check(cudaGetLastError(), "the shading kernels");
+      if (order_rays_ && it < max_depth) {  // the next iteration's rays (shade at max_depth makes none)
+        cells_scan_kernel<kRayCells><<<1, kScanThreads, 0, stream>>>(view_.ray_order);
+        ray_order_kernel<<<grid, kBlock, 0, stream>>>(cur ^ 1);
+        check(cudaGetLastError(), "the ray queue's order");
+      }
     }
     accumulate_kernel<<<grid, kBlock, 0, stream>>>();
     check(cudaGetLastError(), "the accumulation kernel");

@@ -44,6 +44,18 @@ class WavefrontTraceStage {
     return false;
   }
   virtual bool offers_shadow_apply() const { return false; }  // whether shadow_apply does (and returns true)
+  // Ray queue `queue` traced in the order `order` (device memory: a permutation of its positions), each hit written
+  // at its ray's queue position; false: not offered (closest, in queue order). The same hits either way.
+  virtual bool closest_ordered(int queue, const uint32_t* order, void* stream) {
+    (void)queue, (void)order, (void)stream;
+    return false;
+  }
+  // Whether closest_ordered does (and returns true); then [*lo, *hi] is the scene's box (the ray order's origin
+  // cells).
+  virtual bool offers_closest_order(Vec3* lo, Vec3* hi) const {
+    (void)lo, (void)hi;
+    return false;
+  }
   // BvhStats::sah_visits_per_ray of the stage's scene, where it knows it (0: not known).
   virtual double sah_visits_per_ray() const { return 0.0; }
   // Whether closest / shadow may be recorded in a CUDA graph. optixLaunch may not: under stream capture OptiX
@@ -95,6 +107,8 @@ class WavefrontGpu {
   // In which order shadow queries from depth kShadowOrderDepth on are traced (wavefront.h's ShadowOrder), and why,
   // in a few words ("direction order (auto: rays visit 46.4 nodes, at least 24)").
   const std::string& shadow_order_reason() const { return order_reason_; }
+  // The same for the closest-hit rays of the bounces (wavefront.h's RayOrder): "cell order (auto: ...)".
+  const std::string& ray_order_reason() const { return ray_order_reason_; }
   uint64_t device_bytes() const { return bytes_; }
   std::string traversal() const { return trace_->name(); }
 
@@ -113,6 +127,7 @@ class WavefrontGpu {
   WavefrontView* view_device_ = nullptr;  // view_ in device memory, its RestirFrame the render call's
   bool fuse_shadow_ = true;    // the trace stage's shadow_apply where offered (PENUMBRA_WAVEFRONT_FUSE=0: never)
   bool order_shadow_ = false;  // the shadow queue traced by direction (ShadowOrder): with shadow_apply only
+  bool order_rays_ = false;    // the bounces' ray queues traced by direction and origin (RayOrder): closest_ordered
   bool film_direct_ = true;    // render()'s film where given (PENUMBRA_WAVEFRONT_FILM=0: never)
   void* graph_ = nullptr;      // cudaGraph_t
   void* exec_ = nullptr;       // cudaGraphExec_t
@@ -120,6 +135,7 @@ class WavefrontGpu {
   int graph_depth_ = -1;
   WavefrontView view_;         // device pointers into memory_
   std::string order_reason_;
+  std::string ray_order_reason_;
 };
 
 // Where PENUMBRA_SHADOW_ORDER is auto (its default), the shadow queries are ordered by direction when rays in the
@@ -128,6 +144,8 @@ class WavefrontGpu {
 // sponza-lanterns (50) 12.81 -> 12.11; cornell-sphere (9.4) 1.94 -> 2.09, glossy (2) +3%, bunnies (14) +0.4%,
 // many-spheres (18, many lights) +2%; occlusion (16) -7%, a gain this rule misses.
 constexpr double kShadowOrderMinVisits = 24.0;
+// The same for the bounces' closest-hit rays (PENUMBRA_RAY_ORDER=auto).
+constexpr double kRayOrderMinVisits = 24.0;
 
 // The default pool: one slot per pixel of a 1920 x 2048 frame (2^21: 1080p in one wave at one sample per pixel);
 // PENUMBRA_WAVEFRONT_PATHS overrides it.
