@@ -222,7 +222,9 @@ PN_FN LightSample sample_spherical_polygon(const Light& l, const LightSampleCont
       u.x = pn_min((u.x - p0) / (1.f - p0), kOneMinusEpsilon);
     }
   }
-  if (!(s.tri[which].area > 0.f)) return LightSample();
+  // Chosen by value: an index into s.tri would put the whole light in local memory on the GPU.
+  const SphericalTriangle tri = which ? s.tri[1] : s.tri[0];
+  if (!(tri.area > 0.f)) return LightSample();
   if (kProjected) {
     float w[4];
     if (!triangle_warp_weights(l, ctx, which, w)) return LightSample();
@@ -230,7 +232,7 @@ PN_FN LightSample sample_spherical_polygon(const Light& l, const LightSampleCont
     warp_pdf = bilinear_pdf(u, w);
   }
   // For two triangles: P(triangle) * warp / its area = warp / total area.
-  return planar_sample_from_direction(l, ctx.p, sample_spherical_triangle(s.tri[which], u), warp_pdf / s.area);
+  return planar_sample_from_direction(l, ctx.p, sample_spherical_triangle(tri, u), warp_pdf / s.area);
 }
 
 template <bool kProjected>
@@ -256,7 +258,8 @@ PN_FN float pdf_spherical_polygon(const Light& l, const LightSampleContext& ctx,
     // Of two triangles, (p, p+e1, p+e1+e2) holds the points with b <= a.
     const int which = (s.kind == SphericalLight::kTwoTriangles && ab.y > ab.x) ? 1 : 0;
     if (!triangle_warp_weights(l, ctx, which, w)) return 0.f;
-    u = invert_spherical_triangle_sample(s.tri[which], wi);
+    const SphericalTriangle tri = which ? s.tri[1] : s.tri[0];  // by value, as in sample_spherical_polygon
+    u = invert_spherical_triangle_sample(tri, wi);
   }
   return bilinear_pdf(u, w) / s.area;
 }
