@@ -74,7 +74,7 @@ __device__ __forceinline__ uint32_t warp_inclusive_sum(uint32_t v, uint32_t lane
   return v;
 }
 template <uint32_t kCells>
-__global__ void __launch_bounds__(kScanThreads) cells_scan_kernel(QueueOrder o) {
+__device__ void scan_cells(const QueueOrder& o) {
   constexpr uint32_t kWarps = kScanThreads / 32, kPerWarp = kCells / kWarps, kRounds = kPerWarp / 32;
   static_assert(kWarps == 32 && kPerWarp % 32 == 0, "a warp's totals scanned by one warp; whole rounds of 32");
   __shared__ uint32_t warp_first[kWarps];
@@ -102,16 +102,20 @@ __global__ void __launch_bounds__(kScanThreads) cells_scan_kernel(QueueOrder o) 
   for (uint32_t k = 0; k < kRounds; ++k) o.cell_start[base + k * 32u + lane] = first + start[k];
 }
 
-__global__ void __launch_bounds__(kBlock) shadow_order_kernel() {
-  const WavefrontView& w = WP().view;
-  const uint32_t n = *w.shadow.count;
-  for (uint32_t j = first_index(); j < n; j += stride()) queue_order_place(j, w.shadow_order);
+// The orders of the queues shade just filled, where they are ordered (null cells: not): block 0 scans the ray
+// queue's cells, block 1 the shadow queue's, at once.
+__global__ void __launch_bounds__(kScanThreads) orders_scan_kernel(QueueOrder rays, QueueOrder shadows) {
+  if (blockIdx.x == 0 && rays.cell_count) scan_cells<kRayCells>(rays);
+  if (blockIdx.x == 1 && shadows.cell_count) scan_cells<kShadowCells>(shadows);
 }
 
-__global__ void __launch_bounds__(kBlock) ray_order_kernel(int queue) {
+__global__ void __launch_bounds__(kBlock) orders_place_kernel(int next, bool rays, bool shadows) {
   const WavefrontView& w = WP().view;
-  const uint32_t n = *w.ray[queue].count;
-  for (uint32_t j = first_index(); j < n; j += stride()) queue_order_place(j, w.ray_order);
+  const uint32_t nr = rays ? *w.ray[next].count : 0u, ns = shadows ? *w.shadow.count : 0u;
+  for (uint32_t j = first_index(); j < max(nr, ns); j += stride()) {
+    if (j < nr) queue_order_place(j, w.ray_order);
+    if (j < ns) queue_order_place(j, w.shadow_order);
+  }
 }
 
 // Two resident blocks per SM: at most 128 registers a thread (the shading alone would take 181 and leave one
@@ -483,13 +487,9 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_p
       // The bounces' rays (iteration 1 on; the camera's stay in pixel order) in the order shade counted them into.
       if (!(order_rays_ && it >= 1 && trace_->closest_ordered(cur, view_.ray_order.order, stream)))
         trace_->closest(cur, stream);
-      // The queries shade made at depth it - 1 (all of this iteration's: a wave's paths move in step).
+      // The queries shade made at depth it - 1 (all of this iteration's: a wave's paths move in step), their
+      // order placed after that shade.
       const bool ordered = order_shadow_ && it - 1 >= kShadowOrderDepth;
-      if (ordered) {
-        cells_scan_kernel<kShadowCells><<<1, kScanThreads, 0, stream>>>(view_.shadow_order);
-        shadow_order_kernel<<<grid, kBlock, 0, stream>>>();
-        check(cudaGetLastError(), "the shadow queue's order");
-      }
       if (!(fuse_shadow_ && trace_->shadow_apply(view_device_, ordered, stream))) {
         trace_->shadow(stream);
         apply_kernel<<<grid, kBlock, 0, stream>>>();
@@ -507,10 +507,15 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_p
           break;
       }
       check(cudaGetLastError(), "the shading kernels");
-      if (order_rays_ && it < max_depth) {  // the next iteration's rays (shade at max_depth makes none)
-        cells_scan_kernel<kRayCells><<<1, kScanThreads, 0, stream>>>(view_.ray_order);
-        ray_order_kernel<<<grid, kBlock, 0, stream>>>(cur ^ 1);
-        check(cudaGetLastError(), "the ray queue's order");
+      // The orders of what shade made for the next iteration (at max_depth it makes neither rays nor queries).
+      const bool rays = order_rays_ && it < max_depth;
+      const bool shadows = order_shadow_ && it >= kShadowOrderDepth && it < max_depth;
+      if (rays || shadows) {
+        const QueueOrder none;
+        orders_scan_kernel<<<2, kScanThreads, 0, stream>>>(rays ? QueueOrder(view_.ray_order) : none,
+                                                            shadows ? QueueOrder(view_.shadow_order) : none);
+        orders_place_kernel<<<grid, kBlock, 0, stream>>>(cur ^ 1, rays, shadows);
+        check(cudaGetLastError(), "the queues' orders");
       }
     }
     accumulate_kernel<<<grid, kBlock, 0, stream>>>();
