@@ -164,9 +164,8 @@ for scene in cornell-sphere sponza; do
     record "$scene: shadow order renders" 1
   fi
 done
-# The bounces' closest-hit rays by direction and origin cells (wavefront.h's RayOrder; auto picks it as the shadow
-# order), their hits shaded in that order: each path's steps are the same, so the image is queue order's byte for
-# byte.
+# The bounces' closest-hit rays traced by direction and origin cells (wavefront.h's RayOrder; auto picks it as the
+# shadow order): every ray gets the same hit at its queue position, so the image is queue order's byte for byte.
 for scene in cornell-sphere sponza; do
   listed "$scene" || continue
   n=${scene}_ray_order

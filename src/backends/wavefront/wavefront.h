@@ -12,6 +12,8 @@
 //       begin_bounce(cur ^ 1)     the next ray queue and the shadow queue emptied
 //       shade<F>(j, cur)          on_hit / on_miss: a shadow query pushed to the shadow queue, the next ray
 //                                 pushed to ray queue cur ^ 1
+//       queue_order_place(j)      where the queues are traced in the order of a key (QueueOrder: ShadowOrder,
+//                                 RayOrder), each entry shade counted to its place in that order
 //     accumulate(i)               every pixel of the wave: its samples' L, in sample order
 // A path's shadow result is consumed (apply) before its next hit (shade), the one ordering rule of the step
 // functions, so the image is the depth-first driver's bit for bit wherever the arithmetic is the same (the CPU:
