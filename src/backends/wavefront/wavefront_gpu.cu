@@ -122,13 +122,69 @@ __global__ void __launch_bounds__(kBlock) orders_place_kernel(int next, bool ray
 // block of 8 warps per SM). Measured on the H200 (bench, 1080p, solid-angle): cornell-sphere 2.71 -> 2.59 ms,
 // sponza 13.47 -> 13.07 ms a sample. Three blocks (80 registers, 1.9 KB of spill stores) lost (session 29:
 // cornell-sphere 1.86 -> 2.38, sponza 9.35 -> 10.34).
-template <uint32_t kLevel>
+//
+// Each kernel is compiled for one integrator configuration where lights are chosen simply (uniformly or by power):
+// its strategy, and MIS off or on (balance or power), are constants, so the code of every other strategy, of the
+// light BVH and restir, and of MIS where it is off, is not there to take registers. Sponza's shading kernel spilled
+// 572 bytes a thread; compiled for solid-angle without MIS, 152 (session 29, H200: Sponza's shading 2.47 -> 1.76 ms
+// a sample; sponza 8.82 -> 8.11 ms, cornell-sphere 1.84 -> 1.69, with MIS 9.28 -> 8.53 and 1.98 -> 1.83). Other
+// configurations (the light BVH, restir) take the kernel compiled for any (kAnyStrategy). 24 kernels: this file
+// compiles in about a minute.
+constexpr uint32_t kAnyStrategy = ~0u;
+enum ShadeMis : uint32_t { kShadeMisNone, kShadeMisWeighted, kShadeMisAny };
+
+template <uint32_t kStrategy, uint32_t kMis>
+__device__ __forceinline__ IntegratorSettings shade_settings(IntegratorSettings s) {
+  if constexpr (kStrategy != kAnyStrategy) {
+    s.strategy = Strategy(kStrategy);
+    if (s.light_selection != LightSelection::Uniform) s.light_selection = LightSelection::Power;
+  }
+  if constexpr (kMis == kShadeMisNone) s.mis = Mis::None;
+  if constexpr (kMis == kShadeMisWeighted) {
+    if (s.mis != Mis::Balance) s.mis = Mis::Power;
+  }
+  return s;
+}
+
+template <uint32_t kLevel, uint32_t kStrategy, uint32_t kMis>
 __global__ void __launch_bounds__(kBlock, 2) shade_kernel(int cur) {
   const WaveParams& p = WP();
-  const IntegratorSettings s = p.integrator;
+  const IntegratorSettings s = shade_settings<kStrategy, kMis>(p.integrator);
   const uint32_t n = *p.view.ray[cur].count;
   for (uint32_t j = first_index(); j < n; j += stride())
     shade<optix::kFeatureLevels[kLevel]>(j, p.view, cur, p.scene, s);
+}
+
+// Which shading kernel a configuration takes: its strategy and MIS class where lights are chosen simply, else any.
+ShadeKernelKey shade_kernel_key(const IntegratorSettings& s) {
+  const bool simple = s.light_selection == LightSelection::Uniform || s.light_selection == LightSelection::Power;
+  if (!simple) return {kAnyStrategy, kShadeMisAny};
+  if (!strategy_uses_nee(s.strategy)) return {uint32_t(s.strategy), kShadeMisAny};
+  return {uint32_t(s.strategy), s.mis == Mis::None ? kShadeMisNone : kShadeMisWeighted};
+}
+
+template <uint32_t kLevel>
+void launch_shade(const ShadeKernelKey& k, unsigned grid, cudaStream_t stream, int cur) {
+  if (k.strategy == kAnyStrategy) {
+    shade_kernel<kLevel, kAnyStrategy, kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);
+    return;
+  }
+  switch (Strategy(k.strategy)) {
+#define PN_X(e, name, impl, nee, desc)                                                                  \
+  case Strategy::e:                                                                                     \
+    if constexpr (!(nee)) {                                                                             \
+      shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);      \
+    } else if (k.mis == kShadeMisNone) {                                                                \
+      shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisNone><<<grid, kBlock, 0, stream>>>(cur);     \
+    } else {                                                                                            \
+      shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisWeighted><<<grid, kBlock, 0, stream>>>(cur); \
+    }                                                                                                   \
+    break;
+    PN_STRATEGIES(PN_X)
+#undef PN_X
+    default:
+      shade_kernel<kLevel, kAnyStrategy, kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);
+  }
 }
 
 // The accumulation's sink: a pixel's launch sums, as render_pixels (device_programs.cu) writes them.
@@ -453,7 +509,7 @@ WavefrontGpu::~WavefrontGpu() {
 // One wave's launches: the camera, max_depth + 1 iterations (wavefront.h says why that many suffice), the
 // accumulation. Every kernel's grid is fixed (a few blocks per SM, grid-stride loops) and reads its queue's length
 // on the device, so the graph holds for every wave of every render call with this depth and level.
-void WavefrontGpu::record(uint32_t feature_level, int max_depth, void* stream_ptr) {
+void WavefrontGpu::record(uint32_t feature_level, int max_depth, const ShadeKernelKey& shade, void* stream_ptr) {
   cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
   if (exec_) cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(exec_));
   if (graph_) cudaGraphDestroy(static_cast<cudaGraph_t>(graph_));
@@ -461,7 +517,7 @@ void WavefrontGpu::record(uint32_t feature_level, int max_depth, void* stream_pt
   check(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal), "cudaStreamBeginCapture");
   cudaGraph_t graph = nullptr;
   try {
-    enqueue(feature_level, max_depth, stream);
+    enqueue(feature_level, max_depth, shade, stream);
   } catch (...) {
     cudaStreamEndCapture(stream, &graph);
     if (graph) cudaGraphDestroy(graph);
@@ -474,10 +530,11 @@ void WavefrontGpu::record(uint32_t feature_level, int max_depth, void* stream_pt
   exec_ = exec;
   graph_level_ = feature_level;
   graph_depth_ = max_depth;
+  graph_shade_ = shade;
 }
 
 // The launches of one wave, on `stream` (recorded by record(), or run directly).
-void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_ptr) {
+void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, const ShadeKernelKey& shade, void* stream_ptr) {
   cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
   const unsigned grid = unsigned(num_sms_) * 8u;
   {
@@ -497,13 +554,13 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, void* stream_p
       begin_bounce_kernel<<<1, 1, 0, stream>>>(cur ^ 1);
       switch (feature_level) {
         case optix::kFeatureLevel_basic:
-          shade_kernel<optix::kFeatureLevel_basic><<<grid, kBlock, 0, stream>>>(cur);
+          launch_shade<optix::kFeatureLevel_basic>(shade, grid, stream, cur);
           break;
         case optix::kFeatureLevel_textured:
-          shade_kernel<optix::kFeatureLevel_textured><<<grid, kBlock, 0, stream>>>(cur);
+          launch_shade<optix::kFeatureLevel_textured>(shade, grid, stream, cur);
           break;
         default:
-          shade_kernel<optix::kFeatureLevel_full><<<grid, kBlock, 0, stream>>>(cur);
+          launch_shade<optix::kFeatureLevel_full>(shade, grid, stream, cur);
           break;
       }
       check(cudaGetLastError(), "the shading kernels");
@@ -589,8 +646,10 @@ bool WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, ui
     return !(env && std::string(env) == "0");
   }();
   const bool use_graph = graph_allowed && trace_->capturable();
-  if (use_graph && (!exec_ || graph_level_ != feature_level || graph_depth_ != frame.integrator.max_depth))
-    record(feature_level, frame.integrator.max_depth, stream);
+  const ShadeKernelKey shade = shade_kernel_key(frame.integrator);
+  if (use_graph && (!exec_ || graph_level_ != feature_level || graph_depth_ != frame.integrator.max_depth ||
+                    !(graph_shade_ == shade)))
+    record(feature_level, frame.integrator.max_depth, shade, stream);
   WaveParams p;
   p.view = view_;
   p.view.restir = restir;
@@ -614,7 +673,7 @@ bool WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, ui
     wave.seed = frame.seed;
     check(cudaMemcpyAsync(wave_, &wave, sizeof wave, cudaMemcpyHostToDevice, stream), "the wave's items");
     if (use_graph) check(cudaGraphLaunch(static_cast<cudaGraphExec_t>(exec_), stream), "cudaGraphLaunch");
-    else enqueue(feature_level, frame.integrator.max_depth, stream);
+    else enqueue(feature_level, frame.integrator.max_depth, shade, stream);
   }
   return into_film;
 }

@@ -76,6 +76,13 @@ struct RestirFrameBuffers {
 // device_scene: the device SceneView (alpha masks). Throws std::runtime_error with one line.
 std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, const SceneView& device_scene);
 
+// Which shading kernel a wave launches (wavefront_gpu.cu: one compiled per strategy and MIS class where lights are
+// chosen simply, one for any configuration).
+struct ShadeKernelKey {
+  uint32_t strategy = 0, mis = 0;
+  bool operator==(const ShadeKernelKey& o) const { return strategy == o.strategy && mis == o.mis; }
+};
+
 // A wavefront of `capacity` paths on the current CUDA device. Throws std::runtime_error with one line (out of
 // memory: the pool's size and PENUMBRA_WAVEFRONT_PATHS named).
 class WavefrontGpu {
@@ -115,8 +122,8 @@ class WavefrontGpu {
  private:
   bool run(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t first_sample,
            uint32_t spp, const RestirFrame& restir, void* sum, void* sum_sq, const DeviceFilm* film, void* stream);
-  void record(uint32_t feature_level, int max_depth, void* stream);
-  void enqueue(uint32_t feature_level, int max_depth, void* stream);
+  void record(uint32_t feature_level, int max_depth, const ShadeKernelKey& shade, void* stream);
+  void enqueue(uint32_t feature_level, int max_depth, const ShadeKernelKey& shade, void* stream);
 
   std::unique_ptr<WavefrontTraceStage> trace_;
   uint32_t capacity_ = 0;
@@ -133,6 +140,7 @@ class WavefrontGpu {
   void* exec_ = nullptr;       // cudaGraphExec_t
   uint32_t graph_level_ = 0;
   int graph_depth_ = -1;
+  ShadeKernelKey graph_shade_;
   WavefrontView view_;         // device pointers into memory_
   std::string order_reason_;
   std::string ray_order_reason_;
