@@ -365,6 +365,23 @@ TEST(ShadowOrder, EnvironmentSettingAndItsErrors) {
   }
 }
 
+// Whether a queue is ordered, and the reason the GPU prints and bench records: the trace stage's inability first,
+// then the environment, then the scene's rays' length against the threshold.
+TEST(QueueOrder, ChoiceAndItsReason) {
+  std::string why;
+  EXPECT_FALSE(choose_order(false, "cannot", OrderMode::Ordered, "PENUMBRA_RAY_ORDER", "cell", 50.0, 24.0, &why));
+  EXPECT_EQ(why, "queue order (cannot)");
+  EXPECT_TRUE(choose_order(true, "cannot", OrderMode::Ordered, "PENUMBRA_RAY_ORDER", "cell", 2.0, 24.0, &why));
+  EXPECT_EQ(why, "cell order (PENUMBRA_RAY_ORDER)");
+  EXPECT_FALSE(choose_order(true, "cannot", OrderMode::Queue, "PENUMBRA_SHADOW_ORDER", "direction", 50.0, 24.0, &why));
+  EXPECT_EQ(why, "queue order (PENUMBRA_SHADOW_ORDER)");
+  EXPECT_TRUE(choose_order(true, "cannot", OrderMode::Auto, "PENUMBRA_SHADOW_ORDER", "direction", 46.4, 24.0, &why));
+  EXPECT_EQ(why, "direction order (auto: rays visit 46.4 nodes, at least 24)");
+  EXPECT_FALSE(choose_order(true, "cannot", OrderMode::Auto, "PENUMBRA_RAY_ORDER", "cell", 9.4, 24.0, &why));
+  EXPECT_EQ(why, "queue order (auto: rays visit 9.4 nodes, under 24)");
+  EXPECT_TRUE(choose_order(true, "cannot", OrderMode::Auto, "PENUMBRA_RAY_ORDER", "cell", 24.0, 24.0, &why));
+}
+
 // The bounces' ray order (wavefront.h's RayOrder): a ray's cell is its direction's octahedral cell (8 x 8), then
 // its origin's Morton cell (8 x 8 x 8 of the scene's box); origins outside the box clamp to its border cells.
 TEST(RayOrder, CellsAreDirectionThenOriginCells) {

@@ -37,6 +37,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -213,6 +214,28 @@ inline ShadowOrderSetting shadow_order_setting(const char* order, const char* re
   return s;
 }
 inline OrderMode ray_order_setting(const char* order) { return order_mode("PENUMBRA_RAY_ORDER", order, "cells"); }
+
+// Whether a queue is traced in the order of a key, and why in a few words ("cell order (auto: rays visit 46.4 nodes,
+// at least 24)"): never where the trace stage cannot (`unable` says why), as the environment's `variable` says where
+// it says, else where the scene's rays visit at least `min_visits` nodes. `ordered`: the order's name.
+inline bool choose_order(bool able, const char* unable, OrderMode mode, const char* variable, const char* ordered,
+                         double visits, double min_visits, std::string* reason) {
+  if (!able) {
+    *reason = std::string("queue order (") + unable + ")";
+    return false;
+  }
+  if (mode != OrderMode::Auto) {
+    const bool on = mode == OrderMode::Ordered;
+    *reason = std::string(on ? ordered : "queue") + " order (" + variable + ")";
+    return on;
+  }
+  const bool on = visits >= min_visits;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%s order (auto: rays visit %.1f nodes, %s %.0f)", on ? ordered : "queue", visits,
+                on ? "at least" : "under", min_visits);
+  *reason = buf;
+  return on;
+}
 
 // The same shadow segment traced from its far end (on the light) back toward the shading point: ordered by
 // direction, rays toward one light then also start together, and share the nodes around the light first

@@ -440,20 +440,9 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   // The shadow queue traced in direction order where rays are long (kShadowOrderMinVisits), always, or never
   // (`setting`, from the environment). Only the fused shadow stage reads the order.
   const double visits = trace_->sah_visits_per_ray();
-  char buf[160];
-  if (!(fuse_shadow_ && trace_->offers_shadow_apply())) {
-    order_shadow_ = false;
-    order_reason_ = "queue order (the trace stage does not fuse tracing and applying shadow rays)";
-  } else if (setting.mode != OrderMode::Auto) {
-    order_shadow_ = setting.mode == OrderMode::Ordered;
-    order_reason_ = std::string(order_shadow_ ? "direction" : "queue") + " order (PENUMBRA_SHADOW_ORDER)";
-  } else {
-    order_shadow_ = visits >= kShadowOrderMinVisits;
-    std::snprintf(buf, sizeof buf, "%s order (auto: rays visit %.1f nodes, %s %.0f)",
-                  order_shadow_ ? "direction" : "queue", visits, order_shadow_ ? "at least" : "under",
-                  kShadowOrderMinVisits);
-    order_reason_ = buf;
-  }
+  order_shadow_ = choose_order(fuse_shadow_ && trace_->offers_shadow_apply(),
+                               "the trace stage does not fuse tracing and applying shadow rays", setting.mode,
+                               "PENUMBRA_SHADOW_ORDER", "direction", visits, kShadowOrderMinVisits, &order_reason_);
   if (order_shadow_ && !setting.reverse) order_reason_ += ", traced forward (PENUMBRA_SHADOW_REVERSE=0)";
   view_.shadow_order.reverse = setting.reverse ? 1u : 0u;
   if (order_shadow_) {
@@ -463,18 +452,9 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   }
   // The bounces' rays traced by direction and origin where rays are long (kRayOrderMinVisits), always, or never.
   Vec3 lo, hi;
-  if (!trace_->offers_closest_order(&lo, &hi)) {
-    order_rays_ = false;
-    ray_order_reason_ = "queue order (the trace stage traces no other order)";
-  } else if (ray_setting != OrderMode::Auto) {
-    order_rays_ = ray_setting == OrderMode::Ordered;
-    ray_order_reason_ = std::string(order_rays_ ? "cell" : "queue") + " order (PENUMBRA_RAY_ORDER)";
-  } else {
-    order_rays_ = visits >= kRayOrderMinVisits;
-    std::snprintf(buf, sizeof buf, "%s order (auto: rays visit %.1f nodes, %s %.0f)",
-                  order_rays_ ? "cell" : "queue", visits, order_rays_ ? "at least" : "under", kRayOrderMinVisits);
-    ray_order_reason_ = buf;
-  }
+  order_rays_ = choose_order(trace_->offers_closest_order(&lo, &hi), "the trace stage traces no other order",
+                             ray_setting, "PENUMBRA_RAY_ORDER", "cell", visits, kRayOrderMinVisits,
+                             &ray_order_reason_);
   if (order_rays_) {
     view_.ray_order.lo = lo;
     const Vec3 ext = hi - lo;
