@@ -18,8 +18,9 @@
 #      (the accumulation sums each pixel's samples in order); the cuda stage's shadow rays traced and applied in
 #      one kernel == in two (PENUMBRA_WAVEFRONT_FUSE=0, same paths), its trace kernels at 10 resident blocks ==
 #      at 8 (PENUMBRA_CUDA_OCC=0, byte for byte); shadow queries in direction order == queue order (byte for byte
-#      traced forward; the same paths traced from the light); restir with spatial reuse (its frame passes, in the
-#      wavefront since session 20) agrees with the CPU;
+#      traced forward; the same paths traced from the light); the bounces' rays in cell order == queue order and
+#      the cuda traversal's forms (auto) == its general form (byte for byte); restir with spatial reuse (its frame
+#      passes, in the wavefront since session 20) agrees with the CPU;
 #   5. compute-sanitizer --tool memcheck on short wavefront renders, both traversals: 0 errors;
 #   6. `penumbra bench` at 1920x1080, 1 spp a launch, depth 8, solid-angle: megakernel, wavefront optix,
 #      wavefront cuda on cornell-sphere and sponza (the issue's targets: <= 2.0 and <= 8 ms per sample),
@@ -177,6 +178,22 @@ for scene in cornell-sphere sponza; do
     record "$scene: the bounces' rays in cell order == queue order, byte for byte" $?
   else
     record "$scene: ray order renders" 1
+  fi
+done
+# The cuda traversal's forms (backends/cuda/trace_forms.h; auto picks them by the scene: the flat form, the if-if
+# loop where rays are long, the FMA box test for shadow rays in flat scenes): every ray gets the same hit and every
+# shadow query the same answer as in the general while-while form with the subtract-multiply box test, so the
+# image is the same byte for byte.
+for scene in cornell-sphere sponza; do
+  listed "$scene" || continue
+  n=${scene}_forms
+  if render "${n}_auto" "$scene" solid-angle power 7 --backend optix --wavefront --traversal cuda &&
+     PENUMBRA_CUDA_LOOP=while PENUMBRA_CUDA_BOX=slab PENUMBRA_CUDA_FLAT=0 render "${n}_general" "$scene" solid-angle \
+       power 7 --backend optix --wavefront --traversal cuda; then
+    cmp -s "$out/${n}_auto.exr" "$out/${n}_general.exr"
+    record "$scene: the cuda traversal's forms (auto) == its general form, byte for byte" $?
+  else
+    record "$scene: traversal form renders" 1
   fi
 done
 if listed many-spheres; then

@@ -15,6 +15,7 @@
 #include "backends/cpu/cpu_backend.h"
 #include "backends/cuda/bvh_build.h"
 #include "backends/cuda/bvh_traverse.h"
+#include "backends/cuda/trace_forms.h"
 #include "backends/probe_rays.h"
 #include "scene/scene.h"
 
@@ -93,6 +94,34 @@ void compare_closest(const RayQueries& ref, const BvhView& bvh, const SceneView&
   }
 }
 
+// A form of the traversal (bvh_traverse.h's kBvhFlat, kBvhIfIf, kBvhFmaBox, as the GPU's kernels compile them)
+// against the plain one on the same rays: shadow answers equal; closest hits at the same t, on the same primitive
+// but where two are hit at that same t (the one found first wins, and the FMA box test may order children
+// differently where their entries are a rounding apart). Returns the rays that differ; counts the ties.
+template <int kForm>
+uint64_t form_differences(const BvhView& bvh, const SceneView& view, const std::vector<TraceRay>& closest,
+                          const std::vector<TraceRay>& shadow, uint64_t* ties) {
+  uint64_t differ = 0;
+  for (const TraceRay& r : closest) {
+    HitRecord a, b;
+    const bool ha = bvh_trace<false>(bvh, &view, Ray(r.o, r.d), r.tmax, &a);
+    const bool hb = bvh_trace<false, kForm>(bvh, &view, Ray(r.o, r.d), r.tmax, &b);
+    if (ha != hb || (ha && a.t != b.t)) {
+      ++differ;
+    } else if (ha && (a.instance != b.instance || a.prim != b.prim)) {
+      ++*ties;
+    } else if (ha && (a.b1 != b.b1 || a.b2 != b.b2)) {
+      ++differ;
+    }
+  }
+  for (const TraceRay& r : shadow) {
+    HitRecord unused;
+    differ += bvh_trace<true>(bvh, &view, Ray(r.o, r.d), r.tmax, &unused) !=
+              bvh_trace<true, kForm>(bvh, &view, Ray(r.o, r.d), r.tmax, &unused);
+  }
+  return differ;
+}
+
 // Runs every check on one scene.
 void check_scene(const Scene& scene) {
   const std::unique_ptr<RayQueries> ref = make_cpu_ray_queries(scene);
@@ -164,11 +193,31 @@ void check_scene(const Scene& scene) {
                 bvh_occluded(gv, &host->view, Ray(r.o, r.d), r.tmax);
     EXPECT_EQ(differ, 0u) << scene.source << ": the identity instances' fast path differs from the general one";
   }
+  // The forms the GPU's kernels are compiled in: the same answers. Flat ones only where the scene is flat.
+  {
+    const std::vector<TraceRay> rays = probe_closest_rays(bounds, kRandomRays / 4, kSeed + 2);
+    const std::vector<TraceRay> segs = probe_shadow_rays(bounds, kRandomRays / 4, kSeed + 2);
+    uint64_t ties = 0;
+    EXPECT_EQ((form_differences<kBvhIfIf>(bvh, host->view, rays, segs, &ties)), 0u) << scene.source << ": if-if";
+    EXPECT_EQ(ties, 0u) << scene.source << ": if-if visits in the same order";
+    EXPECT_EQ((form_differences<kBvhFmaBox>(bvh, host->view, rays, segs, &ties)), 0u) << scene.source << ": fma";
+    EXPECT_EQ((form_differences<kBvhFmaBox | kBvhIfIf>(bvh, host->view, rays, segs, &ties)), 0u) << scene.source;
+    const bool flat = !built.any_alpha_masked &&
+                      std::all_of(scene.instances.begin(), scene.instances.end(),
+                                  [](const Instance& i) { return i.to_object.is_identity(); });
+    EXPECT_EQ(bvh.flat, flat) << scene.source;
+    if (bvh.flat) {
+      EXPECT_EQ((form_differences<kBvhFlat>(bvh, host->view, rays, segs, &ties)), 0u) << scene.source << ": flat";
+      EXPECT_EQ((form_differences<kBvhFlat | kBvhIfIf | kBvhFmaBox>(bvh, host->view, rays, segs, &ties)), 0u)
+          << scene.source << ": flat, if-if, fma";
+    }
+    EXPECT_LE(ties, 3 * rays.size() / 100) << scene.source;
+  }
   std::printf("[ agreement ] %s: closest %llu rays, %llu hits, %llu ties, %llu other; shadow %zu rays, %llu blocked, "
-              "%llu mismatched\n",
+              "%llu mismatched%s\n",
               scene.source.c_str(), (unsigned long long)closest.rays, (unsigned long long)closest.hits,
               (unsigned long long)closest.ties, (unsigned long long)closest.other, shadow.size(),
-              (unsigned long long)blocked, (unsigned long long)mismatched);
+              (unsigned long long)blocked, (unsigned long long)mismatched, bvh.flat ? "; flat" : "");
 }
 
 // --- Invariants --------------------------------------------------------------------
@@ -453,6 +502,47 @@ TEST(CudaTraversal, AlphaMasksAgreeWithEmbree) {
 }
 
 // An empty scene has nothing to hit.
+// The kernels' forms: flat where the scene is, if-if where rays are long, the FMA box test for shadow rays; the
+// environment overrides each, and a bad value is an error naming its variable.
+TEST(CudaTraversal, TraceFormsFollowTheScene) {
+  for (const char* v : {"PENUMBRA_CUDA_LOOP", "PENUMBRA_CUDA_BOX", "PENUMBRA_CUDA_FLAT"}) unsetenv(v);
+  CudaTraceForms f = choose_trace_forms(true, 46.4);
+  EXPECT_EQ(f.closest, kBvhFlat | kBvhIfIf);
+  EXPECT_EQ(f.shadow, kBvhFlat | kBvhIfIf | kBvhFmaBox);
+  EXPECT_EQ(f.reason, "if-if loop (auto: rays visit 46.4 nodes, at least 24), flat scene, FMA box test for shadow rays");
+  f = choose_trace_forms(false, 9.4);
+  EXPECT_EQ(f.closest, 0);
+  EXPECT_EQ(f.shadow, 0);
+  EXPECT_EQ(f.reason, "while-while loop (auto: rays visit 9.4 nodes, under 24), general form, subtract-multiply box test");
+  f = choose_trace_forms(true, 9.4);
+  EXPECT_EQ(f.closest, kBvhFlat);
+  EXPECT_EQ(f.shadow, kBvhFlat | kBvhFmaBox);
+  EXPECT_EQ(choose_trace_forms(true, kIfIfMinVisits).closest & kBvhIfIf, kBvhIfIf);
+
+  setenv("PENUMBRA_CUDA_LOOP", "while", 1);
+  setenv("PENUMBRA_CUDA_BOX", "slab", 1);
+  setenv("PENUMBRA_CUDA_FLAT", "0", 1);
+  f = choose_trace_forms(true, 46.4);
+  EXPECT_EQ(f.closest, 0);
+  EXPECT_EQ(f.shadow, 0);
+  setenv("PENUMBRA_CUDA_LOOP", "ifif", 1);
+  setenv("PENUMBRA_CUDA_BOX", "fma", 1);
+  f = choose_trace_forms(false, 2.0);
+  EXPECT_EQ(f.closest, kBvhIfIf | kBvhFmaBox);
+  EXPECT_EQ(f.shadow, kBvhIfIf | kBvhFmaBox);
+  for (const char* v : {"PENUMBRA_CUDA_LOOP", "PENUMBRA_CUDA_BOX", "PENUMBRA_CUDA_FLAT"}) {
+    setenv(v, "sometimes", 1);
+    try {
+      choose_trace_forms(true, 46.4);
+      ADD_FAILURE() << v << "=sometimes was accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(v), std::string::npos) << e.what();
+    }
+    unsetenv(v);
+  }
+  for (const char* v : {"PENUMBRA_CUDA_LOOP", "PENUMBRA_CUDA_BOX", "PENUMBRA_CUDA_FLAT"}) unsetenv(v);
+}
+
 TEST(CudaTraversal, EmptySceneMissesEverything) {
   Scene scene;
   const BvhHost b = build_bvh(scene);

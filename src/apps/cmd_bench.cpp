@@ -220,8 +220,9 @@ int run_probe(const BenchArgs& a) {
     row.instances = scene.instances.size();
     row.spheres = scene.spheres.size();
     row.r = run_trace_probe(scene, *ob, ps);
-    std::fprintf(stderr, "  %-16s optix %.3f / %.3f ms, cuda %.3f / %.3f ms (closest / shadow)\n", name.c_str(),
-                 row.r.optix.closest_ms, row.r.optix.shadow_ms, row.r.cuda.closest_ms, row.r.cuda.shadow_ms);
+    std::fprintf(stderr, "  %-16s optix %.3f / %.3f ms, cuda %.3f / %.3f ms (closest / shadow); cuda: %s\n",
+                 name.c_str(), row.r.optix.closest_ms, row.r.optix.shadow_ms, row.r.cuda.closest_ms,
+                 row.r.cuda.shadow_ms, row.r.cuda_form.c_str());
     rows.push_back(row);
   }
   auto grays = [](uint32_t rays, double ms) { return ms > 0 ? double(rays) / (ms * 1e-3) * 1e-9 : 0.0; };
@@ -270,6 +271,7 @@ int run_probe(const BenchArgs& a) {
                     {"rays", r.rays},
                     {"optix", side(r.optix)},
                     {"cuda", side(r.cuda)},
+                    {"cuda_form", r.cuda_form},
                     {"cuda_over_optix_closest", r.optix.closest_ms > 0 ? r.optix.closest_ms / r.cuda.closest_ms : 0.0},
                     {"cuda_over_optix_shadow", r.optix.shadow_ms > 0 ? r.optix.shadow_ms / r.cuda.shadow_ms : 0.0},
                     {"agreement",

@@ -113,7 +113,7 @@ class Builder {
   // inner nodes on the longest path.
   template <class Leaf>
   int32_t build(std::vector<RTCBuildPrimitive>& prims, uint32_t max_leaf, BvhHost& out, uint32_t* depth,
-                const Leaf& leaf, const TriangleMesh* mesh = nullptr) {
+                const Leaf& leaf, const TriangleMesh* mesh = nullptr, float triangle_cost = 1.f) {
     RTCBVH bvh = rtcNewBVH(device_);
     RTCBuildArguments a = rtcDefaultBuildArguments();
     const size_t count = prims.size();
@@ -125,7 +125,7 @@ class Builder {
     a.minLeafSize = 1;
     a.maxLeafSize = max_leaf;
     a.traversalCost = 1.0f;
-    a.intersectionCost = 1.0f;
+    a.intersectionCost = triangle_cost;
     a.bvh = bvh;
     a.primitives = prims.data();
     a.primitiveCount = count;
@@ -185,6 +185,10 @@ BvhBuildOptions BvhBuildOptions::from_environment() {
     if (v >= 1 && v <= int(kMaxLeafSize)) o.leaf_size = uint32_t(v);
   }
   if (const char* env = std::getenv("PENUMBRA_CUDA_SPLITS")) o.spatial_splits = std::strcmp(env, "0") != 0;
+  if (const char* env = std::getenv("PENUMBRA_CUDA_SAH_TRI")) {
+    const float v = std::strtof(env, nullptr);
+    if (v > 0.f && v <= 100.f) o.triangle_cost = v;
+  }
   return o;
 }
 
@@ -199,6 +203,8 @@ BvhView BvhHost::view() const {
   v.num_items = uint32_t(items.size());
   v.num_nodes = uint32_t(nodes.size());
   v.any_alpha_masked = any_alpha_masked;
+  v.flat = !any_alpha_masked &&
+           std::all_of(instances.begin(), instances.end(), [](const BvhInstance& i) { return i.identity != 0; });
   return v;
 }
 
@@ -334,7 +340,7 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
       }
       ++leaves;
       return bvh_leaf_ref(first, count);
-    }, splits ? &m : nullptr);
+    }, splits ? &m : nullptr, options.triangle_cost);
     out.stats.mesh_triangles += m.indices.size();
     mesh_built[mi] = true;
     ++out.stats.meshes;

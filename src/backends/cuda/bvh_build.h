@@ -46,6 +46,7 @@ struct BvhHost {
 struct BvhBuildOptions {
   bool spatial_splits = true;  // in the meshes' trees (PENUMBRA_CUDA_SPLITS=0 turns them off by default)
   uint32_t leaf_size = 8;      // most triangle references a leaf, 1..kMaxLeafSize (PENUMBRA_CUDA_LEAF)
+  float triangle_cost = 1.f;   // the SAH's cost of a triangle test, a node visit's being 1 (PENUMBRA_CUDA_SAH_TRI)
   static BvhBuildOptions from_environment();
 };
 

@@ -86,6 +86,7 @@ struct BvhView {
   uint32_t num_items = 0;  // 0: nothing to hit
   uint32_t num_nodes = 0;
   bool any_alpha_masked = false;  // whether alpha_discards can ever be asked (the SceneView is then needed)
+  bool flat = false;  // no alpha masks, every instance the identity: rays stay in world space
 };
 
 }  // namespace pn

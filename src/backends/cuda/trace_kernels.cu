@@ -31,7 +31,7 @@ __device__ __forceinline__ Ray load_ray(const TraceRay* rays, uint32_t i, float*
 
 // kMinBlocks: the resident blocks an SM the launch bound asks for (cuda_trace_min_blocks); 0 asks for none
 // (registers as needed).
-template <int kMinBlocks>
+template <int kMinBlocks, int kForm>
 __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks)
     closest_kernel(BvhView bvh, SceneView scene, const TraceRay* rays, uint32_t count, const uint32_t* device_count,
                    HitRecord* hits, const uint32_t* order) {
@@ -42,12 +42,12 @@ __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks
   float tmax;
   const Ray ray = load_ray(rays, j, &tmax);
   HitRecord h;
-  if (!bvh_intersect(bvh, &scene, ray, tmax, &h)) h.instance = kTraceMiss;
+  if (!bvh_trace<false, kForm>(bvh, &scene, ray, tmax, &h)) h.instance = kTraceMiss;
   hits[j] = h;
 }
 
 // Every thread of a warp reaches the ballot; its lane 0 writes the warp's word.
-template <int kMinBlocks>
+template <int kMinBlocks, int kForm>
 __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks)
     shadow_kernel(BvhView bvh, SceneView scene, const TraceRay* rays, uint32_t count, const uint32_t* device_count,
                   uint32_t* bits) {
@@ -58,7 +58,8 @@ __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks
   if (i < count) {
     float tmax;
     const Ray ray = load_ray(rays, i, &tmax);
-    blocked = bvh_occluded(bvh, &scene, ray, tmax);
+    HitRecord unused;
+    blocked = bvh_trace<true, kForm>(bvh, &scene, ray, tmax, &unused);
   }
   const uint32_t word = __ballot_sync(0xFFFFFFFFu, blocked);
   if ((threadIdx.x & 31u) == 0 && i < count) bits[i / 32u] = word;
@@ -77,15 +78,19 @@ unsigned blocks(uint32_t count) { return unsigned((count + block_size() - 1) / b
 
 // The kernels as compiled for cuda_trace_min_blocks() resident blocks an SM.
 template <class... A>
-void launch_closest(unsigned grid, cudaStream_t s, A... a) {
+void launch_closest(unsigned grid, cudaStream_t s, int form, A... a) {
   with_trace_min_blocks([&](auto b) {
-    closest_kernel<decltype(b)::value><<<grid, block_size(), 0, s>>>(a...);
+    with_trace_form(form, [&](auto f) {
+      closest_kernel<decltype(b)::value, decltype(f)::value><<<grid, block_size(), 0, s>>>(a...);
+    });
   });
 }
 template <class... A>
-void launch_shadow(unsigned grid, cudaStream_t s, A... a) {
+void launch_shadow(unsigned grid, cudaStream_t s, int form, A... a) {
   with_trace_min_blocks([&](auto b) {
-    shadow_kernel<decltype(b)::value><<<grid, block_size(), 0, s>>>(a...);
+    with_trace_form(form, [&](auto f) {
+      shadow_kernel<decltype(b)::value, decltype(f)::value><<<grid, block_size(), 0, s>>>(a...);
+    });
   });
 }
 
@@ -121,6 +126,7 @@ int cuda_trace_block_size() {
 CudaTraversal::CudaTraversal(const BvhHost& bvh) : stats_(bvh.stats) {
   cuda_trace_block_size();  // reads PENUMBRA_CUDA_OCC and _BLOCK now: a bad value stops here, before any launch
   view_ = bvh.view();
+  forms_ = choose_trace_forms(view_.flat, stats_.sah_visits_per_ray);
   try {
     view_.nodes = upload(bvh.nodes, &buffers_[0], &bytes_);
     view_.triangles = upload(bvh.triangles, &buffers_[1], &bytes_);
@@ -141,7 +147,7 @@ void CudaTraversal::trace_closest(const TraceRay* rays, uint32_t count, HitRecor
                                   void* stream) const {
   if (count == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_closest(blocks(count), s, view_, scene, rays, count, nullptr, hits, nullptr);
+  launch_closest(blocks(count), s, forms_.closest, view_, scene, rays, count, nullptr, hits, nullptr);
   check(cudaGetLastError(), "launching the closest-hit kernel");
 }
 
@@ -149,7 +155,7 @@ void CudaTraversal::trace_shadow(const TraceRay* rays, uint32_t count, uint32_t*
                                  const SceneView& scene, void* stream) const {
   if (count == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_shadow(blocks(count), s, view_, scene, rays, count, nullptr, blocked_bits);
+  launch_shadow(blocks(count), s, forms_.shadow, view_, scene, rays, count, nullptr, blocked_bits);
   check(cudaGetLastError(), "launching the shadow kernel");
 }
 
@@ -157,7 +163,7 @@ void CudaTraversal::trace_closest(const TraceRay* rays, const uint32_t* device_c
                                   HitRecord* hits, const SceneView& scene, void* stream, const uint32_t* order) const {
   if (capacity == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_closest(blocks(capacity), s, view_, scene, rays, capacity, device_count, hits, order);
+  launch_closest(blocks(capacity), s, forms_.closest, view_, scene, rays, capacity, device_count, hits, order);
   check(cudaGetLastError(), "launching the closest-hit kernel");
 }
 
@@ -165,7 +171,7 @@ void CudaTraversal::trace_shadow(const TraceRay* rays, const uint32_t* device_co
                                  uint32_t* blocked_bits, const SceneView& scene, void* stream) const {
   if (capacity == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_shadow(blocks(capacity), s, view_, scene, rays, capacity, device_count, blocked_bits);
+  launch_shadow(blocks(capacity), s, forms_.shadow, view_, scene, rays, capacity, device_count, blocked_bits);
   check(cudaGetLastError(), "launching the shadow kernel");
 }
 

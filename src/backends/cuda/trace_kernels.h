@@ -4,9 +4,11 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <type_traits>
 
 #include "backends/cuda/bvh_build.h"
+#include "backends/cuda/trace_forms.h"
 #include "backends/trace_stage.h"
 
 namespace pn {
@@ -26,6 +28,21 @@ void with_trace_min_blocks(F&& f) {
   switch (cuda_trace_min_blocks()) {
     case 10: f(std::integral_constant<int, 10>()); break;
     case 12: f(std::integral_constant<int, 12>()); break;
+    default: f(std::integral_constant<int, 0>()); break;
+  }
+}
+
+// Calls f(std::integral_constant<int, F>()) for F = form (0..7): a kernel template on F launched inside f.
+template <class F>
+void with_trace_form(int form, F&& f) {
+  switch (form) {
+    case 1: f(std::integral_constant<int, 1>()); break;
+    case 2: f(std::integral_constant<int, 2>()); break;
+    case 3: f(std::integral_constant<int, 3>()); break;
+    case 4: f(std::integral_constant<int, 4>()); break;
+    case 5: f(std::integral_constant<int, 5>()); break;
+    case 6: f(std::integral_constant<int, 6>()); break;
+    case 7: f(std::integral_constant<int, 7>()); break;
     default: f(std::integral_constant<int, 0>()); break;
   }
 }
@@ -57,6 +74,7 @@ class CudaTraversal {
                     const SceneView& scene, void* stream) const;
 
   const BvhView& device_view() const { return view_; }  // the BVH in device memory, for kernels of other stages
+  const CudaTraceForms& forms() const { return forms_; }  // how its kernels trace (for kernels of other stages)
   uint64_t device_bytes() const { return bytes_; }
   const BvhStats& stats() const { return stats_; }
 
@@ -65,6 +83,7 @@ class CudaTraversal {
   void* buffers_[5] = {};
   uint64_t bytes_ = 0;
   BvhStats stats_;
+  CudaTraceForms forms_;
 };
 
 }  // namespace pn

@@ -55,6 +55,7 @@ ProbeResult run_trace_probe(const Scene& scene, OptixBackend& optix, const Probe
   r.bvh_bytes = host.bytes();
   const auto t1 = std::chrono::steady_clock::now();
   CudaTraversal cuda(host);
+  r.cuda_form = cuda.forms().reason;
   r.upload_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
 
   const Bounds3 bounds = scene_bounds(scene);

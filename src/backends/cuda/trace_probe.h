@@ -35,6 +35,7 @@ struct ProbeResult {
   uint64_t closest_t_off = 0;  // the same primitive at distances further apart than 2e-5 of the coordinates
   uint64_t shadow_mismatched = 0;
   BvhStats bvh;
+  std::string cuda_form;  // how the cuda kernels traced (CudaTraceForms::reason)
   uint64_t bvh_bytes = 0;
   double upload_ms = 0;
 };

@@ -114,7 +114,8 @@ class OptixBackendImpl final : public OptixBackend {
             {"wavefront_path_bytes", std::to_string(kWavefrontBytesPerPath)},
             {"wavefront_pool", wavefront_ ? format_bytes(wavefront_->device_bytes()) : "0"},
             {"shadow_order", wavefront_ ? wavefront_->shadow_order_reason() : "queue order (megakernel)"},
-            {"ray_order", wavefront_ ? wavefront_->ray_order_reason() : "queue order (megakernel)"}};
+            {"ray_order", wavefront_ ? wavefront_->ray_order_reason() : "queue order (megakernel)"},
+            {"traversal_form", wavefront_ ? wavefront_->traversal_form() : ""}};
   }
 
   RenderStats last_render_stats() const override { return stats_; }
@@ -365,6 +366,8 @@ class OptixBackendImpl final : public OptixBackend {
                                                 props_.multiProcessorCount);
     std::fprintf(stderr, "wavefront on GPU %d: shadow rays in %s; the bounces' rays in %s\n", device_,
                  wavefront_->shadow_order_reason().c_str(), wavefront_->ray_order_reason().c_str());
+    if (!wavefront_->traversal_form().empty())
+      std::fprintf(stderr, "wavefront on GPU %d: cuda traversal: %s\n", device_, wavefront_->traversal_form().c_str());
   }
 
   void launch_trace(const LaunchParams& p, uint32_t raygen) {

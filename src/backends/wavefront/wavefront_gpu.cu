@@ -315,7 +315,7 @@ class CudaTraceStage final : public WavefrontTraceStage {
     traversal_.trace_shadow(q_.shadow_rays, q_.shadow_count, q_.capacity, q_.blocked_bits, scene_, stream);
   }
   bool shadow_apply(const WavefrontView* view, bool ordered, void* stream) override {
-    launch_shadow_apply(traversal_.device_view(), scene_, view, q_.capacity, ordered, stream);
+    launch_shadow_apply(traversal_.device_view(), traversal_.forms().shadow, scene_, view, q_.capacity, ordered, stream);
     return true;
   }
   bool offers_shadow_apply() const override { return true; }
@@ -330,6 +330,7 @@ class CudaTraceStage final : public WavefrontTraceStage {
     return true;
   }
   double sah_visits_per_ray() const override { return traversal_.stats().sah_visits_per_ray; }
+  std::string traversal_form() const override { return traversal_.forms().reason; }
   std::string name() const override { return "cuda"; }
 
  private:

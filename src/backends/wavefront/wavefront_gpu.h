@@ -58,6 +58,8 @@ class WavefrontTraceStage {
   }
   // BvhStats::sah_visits_per_ray of the stage's scene, where it knows it (0: not known).
   virtual double sah_visits_per_ray() const { return 0.0; }
+  // How the stage's traversal traces this scene, in a few words, where it has a choice ("": none).
+  virtual std::string traversal_form() const { return ""; }
   // Whether closest / shadow may be recorded in a CUDA graph. optixLaunch may not: under stream capture OptiX
   // syncs on an event of its own, which fails ("Error synching on OptixPipeline event", measured on the H200),
   // so a wave with the optix stage launches its kernels directly.
@@ -118,6 +120,7 @@ class WavefrontGpu {
   const std::string& ray_order_reason() const { return ray_order_reason_; }
   uint64_t device_bytes() const { return bytes_; }
   std::string traversal() const { return trace_->name(); }
+  std::string traversal_form() const { return trace_->traversal_form(); }
 
  private:
   bool run(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t first_sample,

@@ -12,7 +12,7 @@
 namespace pn {
 namespace {
 
-template <int kMinBlocks>
+template <int kMinBlocks, int kForm>
 __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks)
     shadow_apply_kernel(BvhView bvh, SceneView scene, const WavefrontView* view, bool ordered) {
   const WavefrontView& w = *view;
@@ -22,13 +22,14 @@ __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks
   float tmax;
   Ray ray = load_trace_ray(w.shadow.rays + j, &tmax);
   if (ordered && w.shadow_order.reverse) ray = reversed_shadow_ray(ray, &tmax);
-  apply_shadow_result(j, w, bvh_occluded(bvh, &scene, ray, tmax));
+  HitRecord unused;
+  apply_shadow_result(j, w, bvh_trace<true, kForm>(bvh, &scene, ray, tmax, &unused));
 }
 
 }  // namespace
 
-void launch_shadow_apply(const BvhView& bvh, const SceneView& scene, const WavefrontView* view, uint32_t capacity,
-                         bool ordered, void* stream) {
+void launch_shadow_apply(const BvhView& bvh, int form, const SceneView& scene, const WavefrontView* view,
+                         uint32_t capacity, bool ordered, void* stream) {
   // One thread a slot, as the trace kernels (grids held to a few waves of resident blocks were measured on the
   // H200: Sponza 11.65 -> 11.85 ms a sample at four waves, 12.6 at one; the tail of long rays then waits).
   const unsigned threads = unsigned(cuda_trace_block_size());
@@ -37,7 +38,10 @@ void launch_shadow_apply(const BvhView& bvh, const SceneView& scene, const Wavef
   cudaStream_t s = static_cast<cudaStream_t>(stream);
   // Compiled for the trace kernels' occupancy (trace_kernels.h).
   with_trace_min_blocks([&](auto b) {
-    shadow_apply_kernel<decltype(b)::value><<<blocks, threads, 0, s>>>(bvh, scene, view, ordered);
+    with_trace_form(form, [&](auto f) {
+      shadow_apply_kernel<decltype(b)::value, decltype(f)::value><<<blocks, threads, 0, s>>>(bvh, scene, view,
+                                                                                            ordered);
+    });
   });
   const cudaError_t e = cudaGetLastError();
   if (e != cudaSuccess)
