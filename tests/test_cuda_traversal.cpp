@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "backends/cpu/cpu_backend.h"
@@ -541,6 +542,33 @@ TEST(CudaTraversal, TraceFormsFollowTheScene) {
     unsetenv(v);
   }
   for (const char* v : {"PENUMBRA_CUDA_LOOP", "PENUMBRA_CUDA_BOX", "PENUMBRA_CUDA_FLAT"}) unsetenv(v);
+}
+
+// The build's measurement knobs: read from the environment, a value out of range an error naming the variable.
+TEST(CudaTraversal, BuildKnobsAreCheckedNotIgnored) {
+  setenv("PENUMBRA_CUDA_LEAF", "4", 1);
+  setenv("PENUMBRA_CUDA_SAH_TRI", "2.5", 1);
+  BvhBuildOptions o = BvhBuildOptions::from_environment();
+  EXPECT_EQ(o.leaf_size, 4u);
+  EXPECT_FLOAT_EQ(o.triangle_cost, 2.5f);
+  for (const auto& [name, value] : std::vector<std::pair<const char*, const char*>>{
+           {"PENUMBRA_CUDA_LEAF", "0"}, {"PENUMBRA_CUDA_LEAF", "17"}, {"PENUMBRA_CUDA_LEAF", "4x"},
+           {"PENUMBRA_CUDA_SAH_TRI", "0"}, {"PENUMBRA_CUDA_SAH_TRI", "cheap"}, {"PENUMBRA_CUDA_SAH_TRI", "nan"}}) {
+    unsetenv("PENUMBRA_CUDA_LEAF");
+    unsetenv("PENUMBRA_CUDA_SAH_TRI");
+    setenv(name, value, 1);
+    try {
+      BvhBuildOptions::from_environment();
+      ADD_FAILURE() << name << "=" << value << " was accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  }
+  unsetenv("PENUMBRA_CUDA_LEAF");
+  unsetenv("PENUMBRA_CUDA_SAH_TRI");
+  o = BvhBuildOptions::from_environment();
+  EXPECT_EQ(o.leaf_size, 8u);
+  EXPECT_FLOAT_EQ(o.triangle_cost, 1.f);
 }
 
 TEST(CudaTraversal, EmptySceneMissesEverything) {

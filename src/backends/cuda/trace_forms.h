@@ -8,9 +8,9 @@
 namespace pn {
 
 // The forms (bvh_traverse.h's kBvhFlat | kBvhIfIf | kBvhFmaBox bits) for closest-hit and for shadow rays, and
-// why in a few words. By default kBvhFlat where the scene is flat
-// (BvhView::flat); the if-if loop for both where rays are long (BvhStats::sah_visits_per_ray at least
-// kIfIfMinVisits), else while-while; the one-FMA box test for shadow rays in flat scenes. For measurements:
+// why in a few words. By default kBvhFlat where the scene is flat (BvhView::flat); the if-if loop for both where
+// rays are long (BvhStats::sah_visits_per_ray at least kIfIfMinVisits), else while-while; the one-FMA box test
+// for shadow rays in flat scenes. For measurements:
 // PENUMBRA_CUDA_LOOP = auto | while | ifif, PENUMBRA_CUDA_BOX = auto | slab | fma (fma: both kinds of rays),
 // PENUMBRA_CUDA_FLAT = 0 (the general form). Another value is an error naming the variable.
 struct CudaTraceForms {
