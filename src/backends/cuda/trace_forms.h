@@ -1,9 +1,14 @@
 // How the cuda traversal's kernels trace a scene: which of bvh_traverse.h's forms they are compiled in, for
-// closest-hit and for shadow rays, chosen once for a BVH on the host (CudaTraversal). Host code: the CPU tests
-// check the choice.
+// closest-hit and for shadow rays, chosen once for a BVH on the host (CudaTraversal). Host code, header-only (the
+// CPU tests check the choice; the CUDA trace library and the CPU library both use it).
 #pragma once
 
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
 #include <string>
+
+#include "backends/cuda/bvh_traverse.h"
 
 namespace pn {
 
@@ -18,11 +23,51 @@ struct CudaTraceForms {
   int shadow = 0;
   std::string reason;  // "if-if loop (auto: rays visit 46.4 nodes, at least 24), flat scene, FMA box test for ..."
 };
-CudaTraceForms choose_trace_forms(bool flat, double sah_visits_per_ray);
 // Measured on the H200 (session 30, docs/results/h200-session30): random rays in Sponza (46 visits) with the
 // flat form, while-while -> if-if, ms for 4.2M closest / shadow 1.62 / 1.52 -> 1.42 / 1.26; in cornell-sphere
 // (9.4 visits) 0.62 / 0.36 -> 0.66 / 0.40. The FMA box test for shadow rays: Sponza 1.63 -> 1.52 (while-while),
 // cornell-sphere 0.385 -> 0.363; in the general form it spills, and occlusion and bunnies lost 2% at 1080p.
 constexpr double kIfIfMinVisits = 24.0;
+
+// The choice for a BVH whose view is `flat` (BvhView::flat) and whose rays visit `sah_visits_per_ray` nodes.
+inline CudaTraceForms choose_trace_forms(bool flat, double sah_visits_per_ray) {
+  auto setting = [](const char* name, const char* values) {
+    const char* env = std::getenv(name);
+    const std::string v = env ? env : "auto";
+    if (("|" + std::string(values) + "|").find("|" + v + "|") == std::string::npos)
+      throw std::runtime_error(std::string(name) + " must be " + values + ", not '" + v + "'");
+    return v;
+  };
+  const std::string loop = setting("PENUMBRA_CUDA_LOOP", "auto|while|ifif");
+  const std::string box = setting("PENUMBRA_CUDA_BOX", "auto|slab|fma");
+  const std::string flat_setting = setting("PENUMBRA_CUDA_FLAT", "auto|0");
+  CudaTraceForms f;
+  char buf[200];
+  const bool if_if = loop == "auto" ? sah_visits_per_ray >= kIfIfMinVisits : loop == "ifif";
+  if (loop == "auto")
+    std::snprintf(buf, sizeof buf, "%s loop (auto: rays visit %.1f nodes, %s %.0f)", if_if ? "if-if" : "while-while",
+                  sah_visits_per_ray, if_if ? "at least" : "under", kIfIfMinVisits);
+  else
+    std::snprintf(buf, sizeof buf, "%s loop (PENUMBRA_CUDA_LOOP)", if_if ? "if-if" : "while-while");
+  f.reason = buf;
+  if (if_if) f.closest = f.shadow = kBvhIfIf;
+  if (flat && flat_setting == "auto") {
+    f.closest |= kBvhFlat;
+    f.shadow |= kBvhFlat;
+    f.reason += ", flat scene";
+  } else {
+    f.reason += flat ? ", general form (PENUMBRA_CUDA_FLAT=0)" : ", general form";
+  }
+  // The FMA box test keeps o / d's products live beside o: where the flat form frees registers, shadow rays gain
+  // by it; closest hits (more state) and the general form spill for it and lose.
+  const bool fma_shadow = box == "auto" ? (f.shadow & kBvhFlat) != 0 : box == "fma";
+  if (fma_shadow) f.shadow |= kBvhFmaBox;
+  if (box == "fma") f.closest |= kBvhFmaBox;
+  f.reason += box == "slab"  ? ", subtract-multiply box test (PENUMBRA_CUDA_BOX)"
+              : box == "fma" ? ", FMA box test (PENUMBRA_CUDA_BOX)"
+              : fma_shadow   ? ", FMA box test for shadow rays"
+                             : ", subtract-multiply box test";
+  return f;
+}
 
 }  // namespace pn
