@@ -6,6 +6,8 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
+#include <string>
 #include <vector>
 
 #include "core/scene_view.h"
@@ -28,5 +30,17 @@ static_assert(kTraceMiss != kSphereInstance, "miss and sphere markers must diffe
 
 // A shadow launch writes bit i % 32 of word i / 32 for ray i: 1 when blocked.
 PN_FN uint32_t trace_bit_words(uint32_t rays) { return (rays + 31u) / 32u; }
+
+// Whether a scene's rays are long enough for what pays only on long traversals (the wavefront's queue orders, the
+// cuda traversal's if-if loop): at least `min_visits` nodes a ray (BvhStats::sah_visits_per_ray, `visits`). *why
+// gets the words that say so: "auto: rays visit 46.4 nodes, at least 24".
+inline bool rays_are_long(double visits, double min_visits, std::string* why) {
+  const bool long_rays = visits >= min_visits;
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "auto: rays visit %.1f nodes, %s %.0f", visits, long_rays ? "at least" : "under",
+                min_visits);
+  *why = buf;
+  return long_rays;
+}
 
 }  // namespace pn

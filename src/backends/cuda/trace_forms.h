@@ -3,12 +3,12 @@
 // CPU tests check the choice; the CUDA trace library and the CPU library both use it).
 #pragma once
 
-#include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
 
 #include "backends/cuda/bvh_traverse.h"
+#include "backends/trace_stage.h"
 
 namespace pn {
 
@@ -42,14 +42,9 @@ inline CudaTraceForms choose_trace_forms(bool flat, double sah_visits_per_ray) {
   const std::string box = setting("PENUMBRA_CUDA_BOX", "auto|slab|fma");
   const std::string flat_setting = setting("PENUMBRA_CUDA_FLAT", "auto|0");
   CudaTraceForms f;
-  char buf[200];
-  const bool if_if = loop == "auto" ? sah_visits_per_ray >= kIfIfMinVisits : loop == "ifif";
-  if (loop == "auto")
-    std::snprintf(buf, sizeof buf, "%s loop (auto: rays visit %.1f nodes, %s %.0f)", if_if ? "if-if" : "while-while",
-                  sah_visits_per_ray, if_if ? "at least" : "under", kIfIfMinVisits);
-  else
-    std::snprintf(buf, sizeof buf, "%s loop (PENUMBRA_CUDA_LOOP)", if_if ? "if-if" : "while-while");
-  f.reason = buf;
+  std::string why = "PENUMBRA_CUDA_LOOP";
+  const bool if_if = loop == "auto" ? rays_are_long(sah_visits_per_ray, kIfIfMinVisits, &why) : loop == "ifif";
+  f.reason = std::string(if_if ? "if-if" : "while-while") + " loop (" + why + ")";
   if (if_if) f.closest = f.shadow = kBvhIfIf;
   if (flat && flat_setting == "auto") {
     f.closest |= kBvhFlat;

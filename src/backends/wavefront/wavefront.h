@@ -37,7 +37,6 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -229,11 +228,9 @@ inline bool choose_order(bool able, const char* unable, OrderMode mode, const ch
     *reason = std::string(on ? ordered : "queue") + " order (" + variable + ")";
     return on;
   }
-  const bool on = visits >= min_visits;
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "%s order (auto: rays visit %.1f nodes, %s %.0f)", on ? ordered : "queue", visits,
-                on ? "at least" : "under", min_visits);
-  *reason = buf;
+  std::string why;
+  const bool on = rays_are_long(visits, min_visits, &why);
+  *reason = std::string(on ? ordered : "queue") + " order (" + why + ")";
   return on;
 }
 
