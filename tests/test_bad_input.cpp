@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <tuple>
 
 #include "core/texture.h"
 #include "render/backend.h"
@@ -175,13 +176,15 @@ TEST(BadInput, SceneWithoutLightWarns) {
 // --- 9. Geometry robustness -----------------------------------------------------------
 
 // The camera inside a closed box (one mesh, turned so that its seams are not
-// axis-aligned); a sphere light and a white sky outside. Every path stays in
+// axis-aligned; closed_box_instanced.json places it as an instance turned about
+// a tilted axis); a sphere light and a white sky outside. Every path stays in
 // the box, so every pixel is exactly 0: no ray slips through a seam, and no
 // bounce or shadow ray starts behind a neighbouring wall.
-class ClosedBox : public ::testing::TestWithParam<std::string> {};
+class ClosedBox : public ::testing::TestWithParam<std::tuple<std::string, std::string>> {};
 
 TEST_P(ClosedBox, SeesExactlyNothing) {
-  Scene s = load_scene(data("closed_box.json"), {"render.strategy=\"" + GetParam() + "\""});
+  const auto& [file, strategy] = GetParam();
+  Scene s = load_scene(data(file), {"render.strategy=\"" + strategy + "\""});
   Rendered r = render(s);
   const std::vector<float> img = r.film.mean();
   size_t lit = 0;
@@ -190,13 +193,18 @@ TEST_P(ClosedBox, SeesExactlyNothing) {
     lit += v != 0.f;
     brightest = std::max(brightest, v);
   }
-  EXPECT_EQ(lit, 0u) << GetParam() << ": brightest " << brightest;
+  EXPECT_EQ(lit, 0u) << file << " " << strategy << ": brightest " << brightest;
   EXPECT_EQ(r.stats.nonfinite, 0u);
 }
 
-INSTANTIATE_TEST_SUITE_P(Strategies, ClosedBox, ::testing::Values("area", "solid-angle", "bsdf"),
-                         [](const ::testing::TestParamInfo<std::string>& i) {
-                           return i.param == "solid-angle" ? std::string("solid_angle") : i.param;
+INSTANTIATE_TEST_SUITE_P(Strategies, ClosedBox,
+                         ::testing::Combine(::testing::Values("closed_box.json", "closed_box_instanced.json"),
+                                            ::testing::Values("area", "solid-angle", "projected-solid-angle", "bsdf")),
+                         [](const ::testing::TestParamInfo<std::tuple<std::string, std::string>>& i) {
+                           std::string n = std::get<0>(i.param) + "_" + std::get<1>(i.param);
+                           for (char& c : n)
+                             if (c == '-' || c == '.') c = '_';
+                           return n;
                          });
 
 }  // namespace

@@ -59,7 +59,7 @@ test::MeanEstimator irradiance(const IntegratorSettings& s, const Light& light, 
   for (int i = 0; i < samples; ++i) {
     float us = rng.uniform();
     Vec2 u = rng.uniform2();
-    double e = kPi * estimate_direct(NoOccluder{}, scene, s, white, x, n, us, u).x;
+    double e = kPi * estimate_direct(NoOccluder{}, scene, s, white, x, 0.f, n, us, u).x;
     float ul = rng.uniform();
     Vec2 ub = rng.uniform2();
     if (s.mis != Mis::None) {

@@ -386,7 +386,7 @@ test::MeanEstimator field_irradiance(const SphereField& field, const IntegratorS
     const float us = rng.uniform();
     const Vec2 u = rng.uniform2();
     const DirectSample d = choose_direct_sample(scene, s, white, x, n, ris, us, u, &rng);
-    double e = kPi * shade_direct_sample(NoOccluder{}, s, white, x, n, d).x;
+    double e = kPi * shade_direct_sample(NoOccluder{}, s, white, x, 0.f, n, d).x;
     const float ul = rng.uniform();
     const Vec2 ub = rng.uniform2();
     if (s.mis != Mis::None) {
@@ -495,7 +495,7 @@ std::vector<test::MeanEstimator> restir_frames(const SphereField& field, const T
         const float us = rng.uniform();
         const Vec2 u = rng.uniform2();
         const DirectSample d = choose_direct_sample(scene, s, white, q.p, q.wo, true, us, u, &rng);
-        in[size_t(y * N + x)] = make_reservoir(tracer, scene, white, q.p, q.wo, d, rs.visibility_reuse != 0);
+        in[size_t(y * N + x)] = make_reservoir(tracer, scene, white, q.p, q.p_error, q.wo, d, rs.visibility_reuse != 0);
       }
     if (rs.temporal) {
       for (size_t i = 0; i < pixels.size(); ++i)

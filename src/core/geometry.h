@@ -12,33 +12,67 @@ namespace pn {
 // the sampled distance, never counts as an occluder (pbrt's ShadowEpsilon).
 constexpr float kShadowEpsilon = 1e-4f;
 
-// Moves a surface point off the surface along its normal by an amount that scales
-// with the magnitude of the coordinates, so that spawned rays do not re-hit the
-// surface they start on. Integer-ULP offsetting after Waechter and Binder, "A Fast
-// and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems, ch. 6.
-// `n` must point to the side the new ray leaves towards.
-PN_FN float offset_component(float p, float n) {
-  constexpr float kOrigin = 1.f / 32.f;
-  constexpr float kFloatScale = 1.f / 65536.f;
-  constexpr float kIntScale = 256.f;
-  int of_i = int(kIntScale * n);
-  int bits;
-  float result;
-  // Reinterpret p's bits, move it by of_i ULPs away from zero in n's direction.
-#if defined(__CUDACC__) && defined(__CUDA_ARCH__)
-  bits = __float_as_int(p);
-  bits += (p < 0.f) ? -of_i : of_i;
-  result = __int_as_float(bits);
-#else
-  static_assert(sizeof(int) == sizeof(float), "int and float must have equal size");
-  __builtin_memcpy(&bits, &p, sizeof bits);
-  bits += (p < 0.f) ? -of_i : of_i;
-  __builtin_memcpy(&result, &bits, sizeof result);
-#endif
-  return std::fabs(p) < kOrigin ? p + kFloatScale * n : result;
+// --- Floating-point error bounds (pbrt-v4, section 6.8) ------------------------
+
+// gamma(n) bounds the relative error of n successive roundings: (1 + eps)^n
+// <= 1 + gamma(n) for float's unit roundoff eps = 2^-24 (Higham).
+PN_FN constexpr float fp_gamma(int n) {
+  constexpr float kUnitRoundoff = 5.96046448e-8f;  // 2^-24
+  return (float(n) * kUnitRoundoff) / (1.f - float(n) * kUnitRoundoff);
 }
-PN_FN Vec3 offset_ray_origin(Vec3 p, Vec3 n) {
-  return Vec3(offset_component(p.x, n.x), offset_component(p.y, n.y), offset_component(p.z, n.z));
+
+// The next float above / below v (v finite; -0 and +0 alike).
+PN_FN uint32_t float_bits(float v) {
+#if defined(__CUDACC__) && defined(__CUDA_ARCH__)
+  return uint32_t(__float_as_int(v));
+#else
+  uint32_t bits;
+  __builtin_memcpy(&bits, &v, sizeof bits);
+  return bits;
+#endif
+}
+PN_FN float bits_float(uint32_t bits) {
+#if defined(__CUDACC__) && defined(__CUDA_ARCH__)
+  return __int_as_float(int(bits));
+#else
+  float v;
+  __builtin_memcpy(&v, &bits, sizeof v);
+  return v;
+#endif
+}
+PN_FN float next_float_up(float v) {
+  if (std::isinf(v) && v > 0.f) return v;
+  if (v == 0.f) return bits_float(1u);  // -0 and +0: the smallest positive float
+  const uint32_t bits = float_bits(v);
+  return bits_float(v > 0.f ? bits + 1 : bits - 1);
+}
+PN_FN float next_float_down(float v) {
+  if (std::isinf(v) && v < 0.f) return v;
+  if (v == 0.f) return bits_float(0x80000001u);  // the largest negative float
+  const uint32_t bits = float_bits(v);
+  return bits_float(v > 0.f ? bits - 1 : bits + 1);
+}
+
+// A bound on how far a computed point with per-axis error bound `p_error` can
+// lie from the true surface along the unit normal n: sum |n_i| p_error_i.
+PN_FN float error_along(Vec3 p_error, Vec3 n) {
+  return std::fabs(n.x) * p_error.x + std::fabs(n.y) * p_error.y + std::fabs(n.z) * p_error.z;
+}
+
+// The origin of a ray leaving a surface point p, whose distance to the true
+// surface along the unit geometric normal n is at most `error` (error_along):
+// p moved along n by that bound and each coordinate rounded away from p, so
+// that the origin lies strictly on n's side of the surface and a ray leaving
+// it cannot hit the surface it starts on. n must point to the side the ray
+// leaves towards. Only the ray's origin moves, along the normal; the shading
+// point stays where the ray hit. pbrt-v4's OffsetRayOrigin.
+PN_FN Vec3 offset_ray_origin(Vec3 p, Vec3 n, float error) {
+  Vec3 o = p + n * error;
+  for (int i = 0; i < 3; ++i) {
+    if (n[i] * error > 0.f) o[i] = next_float_up(o[i]);
+    else if (n[i] * error < 0.f) o[i] = next_float_down(o[i]);
+  }
+  return o;
 }
 
 // Ray-sphere intersection; d must be unit length. Returns the nearest t in
@@ -159,37 +193,104 @@ PN_FN bool intersect_triangle(const Ray& ray, Vec3 p0, Vec3 p1, Vec3 p2, float t
 }
 
 // Closest-hit reconstruction, shared by both backends so that a hit at the same
-// (primitive, t) yields bit-identical points and normals on CPU and GPU.
+// (primitive, t) yields bit-identical points and normals on CPU and GPU. Each
+// returns the point where the ray hit, a conservative bound on its error per
+// axis (pbrt-v4, section 6.8), and the unit geometric normal.
+//
+// The bound has a second part, for the intersectors. pbrt's own triangle test
+// rejects a t within its rounding of 0, so that a ray leaving a surface from a
+// point just off it cannot find it again; Embree, OptiX's built-in triangles and
+// the cuda traversal's watertight test do not: a ray whose origin lies within a
+// few units in the last place of the primitive's size from its surface can find
+// it at t ~ 0 (on a floor at y = 0 the point's own bound along the normal is 0,
+// and every shadow ray from it was blocked). So the bound also holds
+// kIntersectionUlps units in the last place of the primitive's extent (the
+// farthest vertex from the point, the sphere's radius) in every direction.
+constexpr int kIntersectionUlps = 8;
 
 // Triangle: barycentrics (b1, b2) of p1 and p2. The point is interpolated, which
 // is more accurate than o + t d; the normal follows the winding (p1-p0) x (p2-p0).
 //
-// The barycentrics are first pulled towards the centroid by kHitShrink of the
-// way. A hit at an edge, interpolated in floats, can land a rounding error
-// beyond the plane of the neighbouring face; offset_ray_origin then moves it
-// along this face's normal only, so a ray leaving towards the neighbour starts
-// behind it and escapes a closed mesh (a camera inside a closed box would see
-// light at its seams). Pulled in, the point is inside the triangle by far more
-// than that rounding error (by kHitShrink of the triangle's size), and the
-// image moves by nothing measurable.
-constexpr float kHitShrink = 1.f / 65536.f;
-PN_FN void triangle_hit(Vec3 p0, Vec3 p1, Vec3 p2, float b1, float b2, Vec3* p, Vec3* n) {
-  b1 = b1 * (1.f - 3.f * kHitShrink) + kHitShrink;
-  b2 = b2 * (1.f - 3.f * kHitShrink) + kHitShrink;
-  *p = p0 * (1.f - b1 - b2) + p1 * b1 + p2 * b2;
-  *n = normalize(cross(p1 - p0, p2 - p0));
+// Closed meshes stay closed. A hit at an edge, interpolated in floats, can land
+// a rounding error behind the plane of the neighbouring face; offset_ray_origin
+// moves it along this face's normal only, so a ray leaving towards the
+// neighbour would start behind it and escape (a camera inside a closed box
+// would see light at its seams). So a hit closer to an edge than twice the
+// interpolation's error bound is moved into the triangle, perpendicular to the
+// edge, to that distance: a move no larger than that rounding, made only within a
+// few units in the last place of an edge (tests/data/closed_box.json;
+// Geometry.HitPointsAreWhereTheRayHits bounds the move).
+PN_FN void triangle_hit(Vec3 p0, Vec3 p1, Vec3 p2, float b1, float b2, Vec3* p, Vec3* p_error, Vec3* n) {
+  const Vec3 c = cross(p1 - p0, p2 - p0);
+  const float inv_area2 = 1.f / length(c);
+  float b[3] = {1.f - b1 - b2, b1, b2};
+  const Vec3 v[3] = {p0, p1, p2};
+  // The interpolation's own rounding, and the distance 2 |err| a point keeps from every edge: barycentric
+  // b_i >= m_i = 2 |err| / h_i, h_i the height over the edge opposite vertex i.
+  const Vec3 err = (vabs(p0 * b[0]) + vabs(p1 * b[1]) + vabs(p2 * b[2])) * fp_gamma(7);
+  const float keep = 2.f * length(err) * inv_area2;
+  const float m[3] = {keep * length(p2 - p1), keep * length(p2 - p0), keep * length(p1 - p0)};
+  if (b[0] < m[0] || b[1] < m[1] || b[2] < m[2]) {
+    for (int i = 0; i < 3; ++i) {
+      if (!(b[i] < m[i])) continue;
+      // Move the point perpendicular to the edge opposite i, towards vertex i: along the altitude from the
+      // edge's point f = (1 - l) pj + l pk to v[i], which adds s to b_i and takes (1 - l) s and l s from the
+      // edge's two.
+      const int j = i == 0 ? 1 : 0, k = i == 2 ? 1 : 2;
+      const Vec3 edge = v[k] - v[j];
+      const float l = dot(v[i] - v[j], edge) / dot(edge, edge), s = m[i] - b[i];
+      b[i] = m[i];
+      b[j] -= (1.f - l) * s;
+      b[k] -= l * s;
+    }
+    // Near a corner one move can take another barycentric below its bound: the point then goes to the
+    // corner of the triangle of points 2 |err| inside every edge (a triangle too thin to hold one: its
+    // centroid).
+    for (int i = 0; i < 3; ++i) b[i] = pn_max(b[i], m[i]);
+    bool thin;
+    if (b[0] >= b[1] && b[0] >= b[2]) {
+      b[0] = 1.f - b[1] - b[2];
+      thin = b[0] < m[0];
+    } else if (b[1] >= b[2]) {
+      b[1] = 1.f - b[0] - b[2];
+      thin = b[1] < m[1];
+    } else {
+      b[2] = 1.f - b[0] - b[1];
+      thin = b[2] < m[2];
+    }
+    if (thin) b[0] = b[1] = b[2] = 1.f / 3.f;
+  }
+  *p = p0 * b[0] + p1 * b[1] + p2 * b[2];
+  const Vec3 d0 = vabs(p0 - *p), d1 = vabs(p1 - *p), d2 = vabs(p2 - *p);
+  const float extent = pn_max(pn_max(max_component(d0), max_component(d1)), max_component(d2));
+  *p_error = (vabs(p0 * b[0]) + vabs(p1 * b[1]) + vabs(p2 * b[2])) * fp_gamma(7) +
+             Vec3(extent * fp_gamma(kIntersectionUlps));
+  *n = c * inv_area2;
 }
 
-// Sphere: outward normal; the point is re-projected onto the surface.
-PN_FN void sphere_hit(Vec3 center, float radius, const Ray& ray, float t, Vec3* p, Vec3* n) {
+// Sphere: outward normal; the point is re-projected onto the surface (pbrt's
+// error bound for the re-projected point: gamma(5) |p|).
+PN_FN void sphere_hit(Vec3 center, float radius, const Ray& ray, float t, Vec3* p, Vec3* p_error, Vec3* n) {
   Vec3 q = ray.at(t);
   *n = normalize(q - center);
   *p = center + *n * radius;
+  *p_error = vabs(*p - center) * fp_gamma(5) + vabs(center) * fp_gamma(1) + Vec3(radius * fp_gamma(kIntersectionUlps));
 }
 
-// Moves an object-space hit of an instance into world space.
-PN_FN void instance_to_world(const Affine& to_world, const Affine& to_object, Vec3* p, Vec3* n) {
-  *p = to_world.point(*p);
+// Moves an object-space point, its error bound and normal of an instance into
+// world space; the bound grows by the transform's own rounding (pbrt-v4's
+// Transform applied to a point with error).
+PN_FN void instance_to_world(const Affine& to_world, const Affine& to_object, Vec3* p, Vec3* p_error, Vec3* n) {
+  const float* m = to_world.m;
+  const Vec3 q = *p, e = *p_error;
+  Vec3 err;
+  for (int r = 0; r < 3; ++r) {
+    const float a0 = std::fabs(m[4 * r]), a1 = std::fabs(m[4 * r + 1]), a2 = std::fabs(m[4 * r + 2]);
+    err[r] = (fp_gamma(3) + 1.f) * (a0 * e.x + a1 * e.y + a2 * e.z) +
+             fp_gamma(3) * (a0 * std::fabs(q.x) + a1 * std::fabs(q.y) + a2 * std::fabs(q.z) + std::fabs(m[4 * r + 3]));
+  }
+  *p = to_world.point(q);
+  *p_error = err;
   *n = normalize(to_object.transpose_vector(*n));
 }
 

@@ -79,13 +79,14 @@ struct Reservoir {
 // shading point and its BSDF. The rest of the path's radiance (without the
 // first vertex's direct light) is kept by the backend apart: the reuse passes,
 // which read these records of every neighbour, never need it. The BSDF is
-// packed (its normal, not its frame): 96 bytes, aligned for 16-byte loads.
+// packed (its normal, not its frame): 112 bytes, aligned for 16-byte loads.
 struct alignas(16) RestirPixel {
   PackedBsdf bsdf;
   Vec3 p;
   Vec3 wo;
   float t = 0.f;        // distance from the camera (neighbour similarity)
   uint32_t valid = 0;   // 0: the camera ray found no surface that reflects
+  float p_error = 0.f;  // p's error bound along the normal (SurfaceHit::p_error), for shadow rays from p
 };
 
 // Where a camera sample's primary pass writes (null: an ordinary path).
@@ -135,16 +136,17 @@ PN_FN TargetEval restir_target(const SceneView& scene, const Bsdf& bsdf, Vec3 p,
   return t;
 }
 
-// The shadow ray of next-event estimation from shading point p (geometric
-// normal ng on wi's side) towards the light point y: from the offset origin to
-// y itself, stopping kShadowEpsilon short; unbounded for the environment.
+// The shadow ray of next-event estimation from shading point p (error bound
+// p_error along ng, the geometric normal on wi's side) towards the light point
+// y: from the offset origin to y itself, stopping kShadowEpsilon short;
+// unbounded for the environment.
 struct ShadowRay {
   Ray ray;
   float tmax = 0.f;
 };
 
-PN_FN ShadowRay light_shadow_ray(Vec3 p, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
-  const Vec3 o = offset_ray_origin(p, ng);
+PN_FN ShadowRay light_shadow_ray(Vec3 p, float p_error, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
+  const Vec3 o = offset_ray_origin(p, ng, p_error);
   if (infinite) return ShadowRay{Ray(o, wi), kInf};
   const Vec3 to_light = y - o;
   const float dist = length(to_light);
@@ -162,8 +164,8 @@ struct tracer_records_only<Tracer, std::void_t<decltype(Tracer::kRecordsOnly)>>
 
 // Whether the light point is visible from shading point p: its shadow ray is clear.
 template <class Tracer>
-PN_HD bool light_visible(const Tracer& tracer, Vec3 p, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
-  const ShadowRay r = light_shadow_ray(p, ng, wi, y, infinite);
+PN_HD bool light_visible(const Tracer& tracer, Vec3 p, float p_error, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
+  const ShadowRay r = light_shadow_ray(p, p_error, ng, wi, y, infinite);
   return !tracer.occluded(r.ray, r.tmax);
 }
 

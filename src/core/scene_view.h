@@ -57,7 +57,8 @@ struct HitRecord {
 // A shading point, world space.
 struct SurfaceHit {
   float t = kInf;
-  Vec3 p;          // hit point
+  Vec3 p;          // hit point: where the ray hit, to rounding
+  float p_error = 0.f;  // bound on p's distance from the true surface along n (error_along): offset_ray_origin's
   Vec3 n;          // unit geometric normal, as modelled (not flipped towards the ray)
   Vec3 ns;         // unit shading normal (interpolated vertex normals), same side as n
   Vec2 uv;         // texture coordinates (0 without)
@@ -119,8 +120,8 @@ PN_FN void resolve_triangle_hit(const InstanceView& inst, uint32_t tri, float b1
   const MeshView& m = inst.mesh;
   const uint32_t i0 = m.indices[3 * tri], i1 = m.indices[3 * tri + 1], i2 = m.indices[3 * tri + 2];
   const Vec3 p0 = m.positions[i0], p1 = m.positions[i1], p2 = m.positions[i2];
-  Vec3 p, n;
-  triangle_hit(p0, p1, p2, b1, b2, &p, &n);
+  Vec3 p, p_error, n;
+  triangle_hit(p0, p1, p2, b1, b2, &p, &p_error, &n);
   Vec3 ns = n;
   if (kShading && m.normals) {
     const float b0 = 1.f - b1 - b2;
@@ -148,8 +149,10 @@ PN_FN void resolve_triangle_hit(const InstanceView& inst, uint32_t tri, float b1
       if (inst.to_world.linear_determinant() < 0.f) sign = -sign;
     }
   }
-  hit->p = inst.to_world.point(p);
-  hit->n = normalize(inst.to_object.transpose_vector(n));
+  instance_to_world(inst.to_world, inst.to_object, &p, &p_error, &n);
+  hit->p = p;
+  hit->n = n;
+  hit->p_error = error_along(p_error, n);
   hit->ns = kShading ? normalize(inst.to_object.transpose_vector(ns)) : hit->n;
   hit->dpdu = inst.to_world.vector(dpdu);
   hit->bitangent_sign = sign;
@@ -167,7 +170,9 @@ PN_FN SurfaceHit resolve_hit(const SceneView& scene, const Ray& ray, const HitRe
   hit.t = rec.t;
   if (rec.instance == kSphereInstance) {
     const SphereView& s = scene.spheres[rec.prim];
-    sphere_hit(s.center, s.radius, ray, rec.t, &hit.p, &hit.n);
+    Vec3 p_error;
+    sphere_hit(s.center, s.radius, ray, rec.t, &hit.p, &p_error, &hit.n);
+    hit.p_error = error_along(p_error, hit.n);
     hit.ns = hit.n;
     hit.material = s.material;
     hit.light = s.light;

@@ -238,9 +238,10 @@ inline bool choose_order(bool able, const char* unable, OrderMode mode, const ch
 // direction, rays toward one light then also start together, and share the nodes around the light first
 // (session 28: Sponza's shadow stage 1.79 -> 1.55 ms a sample on the H200, after the order's 2.68 -> 1.79).
 // It stops short of the origin by a slack that covers the rounding of the far end (1e-5 of the coordinates'
-// magnitude, about 80 ulps; the origin is already off its surface by up to 256 ulps along the normal), so that
-// the ray does not find the surface it was sent from; occluders closer than that to the shading point are not
-// seen, as the forward ray sees none within kShadowEpsilon of the light. An infinite segment is left as it is.
+// magnitude, about 80 ulps), so that the ray does not find the surface it was sent from; occluders closer than
+// that to the shading point are not seen, as the forward ray sees none within kShadowEpsilon of the light.
+// What that costs: light behind an occluder within 1e-5 (|o| + |y| + distance) of the shading point counts as
+// visible (test ShadowOrder.ReversedSlackIsBounded). An infinite segment is left as it is.
 PN_FN Ray reversed_shadow_ray(const Ray& r, float* tmax) {
   if (!(*tmax < kInf)) return r;
   const Vec3 far = r.o + r.d * *tmax;

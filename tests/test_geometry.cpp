@@ -1,0 +1,213 @@
+// Hit points and ray origins (core/geometry.h) against exact arithmetic: a hit
+// point is where the ray hit, to within its own error bound, which is
+// conservative; the next ray's origin is on the right side of the surface and
+// no further from it than the bound needs; a hit is moved only within a few
+// rounding errors of an edge, and never by more than its bound.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "core/geometry.h"
+
+namespace pn {
+namespace {
+
+struct D3 {
+  double x = 0, y = 0, z = 0;
+  D3() = default;
+  D3(double x_, double y_, double z_) : x(x_), y(y_), z(z_) {}
+  explicit D3(Vec3 v) : x(v.x), y(v.y), z(v.z) {}
+};
+D3 operator-(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+D3 operator+(D3 a, D3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+D3 operator*(D3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+double dot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+D3 cross(D3 a, D3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+double len(D3 a) { return std::sqrt(dot(a, a)); }
+
+struct Triangle {
+  Vec3 p[3];
+};
+
+// Triangles of every size from 1e-3 to 1e3, 1 to 1,000 times their size from the origin (so at least
+// ~10^4 units in the last place wide), turned at random.
+Triangle random_triangle(std::mt19937& g) {
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  const float size = std::pow(10.f, 3.f * u(g)), offset = size * std::pow(10.f, 1.5f + 1.5f * u(g));
+  const Vec3 c(offset * u(g), offset * u(g), offset * u(g));
+  Triangle t;
+  for (Vec3& v : t.p) v = c + Vec3(u(g), u(g), u(g)) * size;
+  return t;
+}
+
+// Signed distance of x from the triangle's plane (normal along the winding), and from each edge's line
+// inside the plane (positive inside), in double.
+double plane_distance(const Triangle& t, D3 x) {
+  const D3 a(t.p[0]), b(t.p[1]), c(t.p[2]);
+  const D3 n = cross(b - a, c - a);
+  return dot(x - a, n) / len(n);
+}
+double edge_distance(const Triangle& t, D3 x) {
+  const D3 v[3] = {D3(t.p[0]), D3(t.p[1]), D3(t.p[2])};
+  const D3 n = cross(v[1] - v[0], v[2] - v[0]);
+  double d = 1e300;
+  for (int i = 0; i < 3; ++i) {
+    const D3 e = v[(i + 1) % 3] - v[i];
+    const D3 inward = cross(n, e);
+    d = std::min(d, dot(x - v[i], inward) / len(inward));
+  }
+  return d;
+}
+
+double smallest_angle(const Triangle& t) {
+  double a = M_PI;
+  for (int i = 0; i < 3; ++i) {
+    const D3 u = D3(t.p[(i + 1) % 3]) - D3(t.p[i]), w = D3(t.p[(i + 2) % 3]) - D3(t.p[i]);
+    a = std::min(a, std::acos(std::clamp(dot(u, w) / (len(u) * len(w)), -1.0, 1.0)));
+  }
+  return a;
+}
+
+bool degenerate(const Triangle& t) {
+  const D3 a(t.p[0]), b(t.p[1]), c(t.p[2]);
+  const double area2 = len(cross(b - a, c - a));
+  const double longest = std::max({len(b - a), len(c - a), len(c - b)});
+  return area2 < 1e-2 * longest * longest;  // slivers: their edge functions say little
+}
+
+TEST(Geometry, HitPointsAreWhereTheRayHits) {
+  std::mt19937 g(7);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  int tested = 0, moved = 0, interior = 0, interior_moved = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const Triangle t = random_triangle(g);
+    if (degenerate(t)) continue;
+    float b1 = u(g), b2 = u(g);
+    if (b1 + b2 > 1.f) b1 = 1.f - b1, b2 = 1.f - b2;
+    // Every fourth hit lies on an edge or a rounding error from one.
+    if (i % 4 == 1) b1 = 0.f;
+    if (i % 4 == 2) b2 = std::ldexp(u(g), -30);
+    if (i % 4 == 3) b2 = 1.f - b1;
+    Vec3 p, err, n;
+    triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n);
+    const double b0 = 1.0 - double(b1) - double(b2);
+    const D3 exact = D3(t.p[0]) * b0 + D3(t.p[1]) * double(b1) + D3(t.p[2]) * double(b2);
+    const D3 d = D3(p) - exact;
+    const double bound = len(D3(err));
+    const double dist = len(d);
+    ++tested;
+    interior += i % 4 == 0;
+    // The point is where the ray hit: within its error bound, or, where it was within twice that bound of
+    // an edge, moved inside by at most three times the bound.
+    const bool near_edge = edge_distance(t, exact) < 2.0 * bound;
+    // Near a corner of angle theta the point keeps 2 |err| from both edges: up to 2 |err| / sin(theta / 2)
+    // from the vertex.
+    const double corner = 1.0 / std::sin(0.5 * smallest_angle(t));
+    if (!near_edge) {
+      ASSERT_LE(std::fabs(d.x), err.x) << i;
+      ASSERT_LE(std::fabs(d.y), err.y) << i;
+      ASSERT_LE(std::fabs(d.z), err.z) << i;
+    } else {
+      ++moved;
+      interior_moved += i % 4 == 0;
+      ASSERT_LE(dist, 3.0 * bound * corner) << i << " b " << b1 << " " << b2 << " bound " << bound;
+    }
+    // The computed point is inside the triangle, off every edge (closed meshes stay closed).
+    ASSERT_GT(edge_distance(t, D3(p)), 0.0) << i << " near edge " << near_edge;
+    // The bound is a rounding error, not a displacement: at most ~1e-6 of the coordinates' magnitude or the
+    // triangle's size.
+    const double mag = std::max({std::fabs(t.p[0].x), std::fabs(t.p[0].y), std::fabs(t.p[0].z),
+                                 std::fabs(t.p[1].x), std::fabs(t.p[1].y), std::fabs(t.p[1].z),
+                                 std::fabs(t.p[2].x), std::fabs(t.p[2].y), std::fabs(t.p[2].z)});
+    const double longest = std::max({len(D3(t.p[1]) - D3(t.p[0])), len(D3(t.p[2]) - D3(t.p[0])),
+                                     len(D3(t.p[2]) - D3(t.p[1]))});
+    ASSERT_LE(bound, 2e-6 * std::max(mag, longest)) << i;
+  }
+  EXPECT_GT(tested, 100000);
+  EXPECT_GT(moved, tested / 2);            // the edge cases above reach the guard
+  EXPECT_LT(interior_moved, interior / 200);  // hits at random almost never do (0.12% here)
+}
+
+TEST(Geometry, RayOriginsLeaveTheSurfaceBarelyAndOnTheRightSide) {
+  std::mt19937 g(11);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  for (int i = 0; i < 200000; ++i) {
+    const Triangle t = random_triangle(g);
+    if (degenerate(t)) continue;
+    float b1 = u(g), b2 = u(g);
+    if (b1 + b2 > 1.f) b1 = 1.f - b1, b2 = 1.f - b2;
+    Vec3 p, err, n;
+    triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n);
+    const float e = error_along(err, n);
+    const Vec3 side = (i & 1) ? n : -n;
+    const Vec3 o = offset_ray_origin(p, side, e);
+    const double h = plane_distance(t, D3(o)) * ((i & 1) ? 1.0 : -1.0);
+    ASSERT_GT(h, 0.0) << i;  // on the side the ray leaves towards
+    // and no further than twice the bound plus the rounding of the move (a unit in the last place of o).
+    const double ulp = std::max({std::fabs(o.x), std::fabs(o.y), std::fabs(o.z)}) * 1.2e-7;
+    ASSERT_LE(h, 2.0 * e + 2.0 * ulp) << i;
+  }
+}
+
+TEST(Geometry, InstanceTransformsKeepTheBound) {
+  std::mt19937 g(5);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  for (int i = 0; i < 50000; ++i) {
+    const Triangle t = random_triangle(g);
+    if (degenerate(t)) continue;
+    Affine m;
+    for (float& v : m.m) v = u(g) * 3.f;
+    m.m[3] *= 100.f, m.m[7] *= 100.f, m.m[11] *= 100.f;
+    const float b1 = 0.25f + 0.2f * u(g), b2 = 0.25f + 0.2f * u(g);
+    Vec3 p, err, n;
+    triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n);
+    const double b0 = 1.0 - double(b1) - double(b2);
+    const D3 exact = D3(t.p[0]) * b0 + D3(t.p[1]) * double(b1) + D3(t.p[2]) * double(b2);
+    const D3 exact_world(m.m[0] * exact.x + m.m[1] * exact.y + m.m[2] * exact.z + m.m[3],
+                         m.m[4] * exact.x + m.m[5] * exact.y + m.m[6] * exact.z + m.m[7],
+                         m.m[8] * exact.x + m.m[9] * exact.y + m.m[10] * exact.z + m.m[11]);
+    instance_to_world(m, m, &p, &err, &n);  // the normal's transform does not matter here
+    ASSERT_LE(std::fabs(p.x - exact_world.x), err.x) << i;
+    ASSERT_LE(std::fabs(p.y - exact_world.y), err.y) << i;
+    ASSERT_LE(std::fabs(p.z - exact_world.z), err.z) << i;
+  }
+}
+
+TEST(Geometry, SphereHitsAreOnTheSphereAndOriginsOutside) {
+  std::mt19937 g(3);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  for (int i = 0; i < 100000; ++i) {
+    const float scale = std::pow(10.f, 3.f * u(g));
+    const Vec3 c = Vec3(u(g), u(g), u(g)) * (scale * 10.f);
+    const float r = scale * (0.01f + std::fabs(u(g)));
+    const Vec3 o = c + normalize(Vec3(u(g), u(g), u(g))) * (r * 3.f);
+    const Vec3 target = c + Vec3(u(g), u(g), u(g)) * (r * 0.5f);
+    const Ray ray(o, normalize(target - o));
+    float t = 0;
+    if (!intersect_sphere(ray, c, r, 0.f, kInf, &t)) continue;
+    Vec3 p, err, n;
+    sphere_hit(c, r, ray, t, &p, &err, &n);
+    const double dist = len(D3(p) - D3(c));
+    ASSERT_LE(std::fabs(dist - r), len(D3(err))) << i;  // on the sphere, to its bound
+    const Vec3 out = offset_ray_origin(p, n, error_along(err, n));
+    ASSERT_GT(len(D3(out) - D3(c)), double(r)) << i;  // outside it
+    const Vec3 in = offset_ray_origin(p, -n, error_along(err, n));
+    ASSERT_LT(len(D3(in) - D3(c)), double(r)) << i;  // or inside, as asked
+  }
+}
+
+TEST(Geometry, NextFloatSteps) {
+  EXPECT_GT(next_float_up(0.f), 0.f);
+  EXPECT_GT(next_float_up(-0.f), 0.f);
+  EXPECT_LT(next_float_down(0.f), 0.f);
+  EXPECT_EQ(next_float_up(1.f), std::nextafter(1.f, 2.f));
+  EXPECT_EQ(next_float_down(1.f), std::nextafter(1.f, 0.f));
+  EXPECT_EQ(next_float_up(-1.f), std::nextafter(-1.f, 0.f));
+  EXPECT_EQ(next_float_down(-1.f), std::nextafter(-1.f, -2.f));
+  EXPECT_EQ(next_float_up(kInf * 10.f), kInf * 10.f);
+}
+
+}  // namespace
+}  // namespace pn
