@@ -12,10 +12,9 @@
 #   2. every built-in scene at low resolution with every technique (strategy
 #      x MIS mode; GPU_CHECK_TECHNIQUES), rendered by both backends with
 #      independent seeds (CPU seed 0, GPU seed 1), each pair compared by
-#      `penumbra compare` (per-pixel
-#      differences within the combined standard errors; mean relative
-#      difference under 1%, or under 4 standard errors of the image mean where
-#      that is larger: glossy's sun glints make its mean noisier); plus GPU renders with the CPU's own seed of
+#      `penumbra compare`'s statistical test alone (per-pixel differences
+#      within the combined standard errors, image means within 4 standard
+#      errors; --max-rel-diff 1: see `independent` below); plus GPU renders with the CPU's own seed of
 #      a few techniques and of the real-scene checks (GPU_CHECK_REAL_SCENES, default
 #      "glossy sponza": textures, environment, GGX, alpha masks). A scene of that
 #      list that `penumbra scenes` does not list is skipped with a note;
@@ -43,8 +42,8 @@
 #
 # Environment: GPU_CHECK_OUT (output folder, default BUILD_DIR/gpu_check),
 # GPU_CHECK_WIDTH/HEIGHT/SPP (default 128x72, 1024 spp: at 256 spp the image
-# mean of cornell-near under area sampling has a 0.6% standard error, too close
-# to the 1% bound on the mean difference), GPU_CHECK_REAL_SCENES,
+# mean of cornell-near under area sampling has a 0.6% standard error, and the
+# statistical test would not see a bias below about 2%), GPU_CHECK_REAL_SCENES,
 # GPU_CHECK_MEMCHECK_SCENES (default cornell-sphere, polygon-near and the real scenes),
 # GPU_CHECK_SCENES (default: every built-in scene), GPU_CHECK_TECHNIQUES,
 # GPU_CHECK_SELECTIONS, GPU_CHECK_SELECTION_SCENES,
@@ -96,10 +95,17 @@ render() {  # render SCENE STRATEGY MIS BACKEND SEED NAME [extra args...]
     --width "$width" --height "$height" --spp "$spp" -o "$out/$name.exr" --variance "$out/${name}_var.exr" "$@" \
     >"$out/$name.log" 2>&1
 }
-compare_pair() {  # compare_pair CPU_NAME GPU_NAME LABEL
-  "$penumbra" compare "$out/$1.exr" "$out/${1}_var.exr" "$out/$2.exr" "$out/${2}_var.exr" | tee "$out/${2}_compare.txt"
+compare_pair() {  # compare_pair CPU_NAME GPU_NAME LABEL [compare options...]
+  "$penumbra" compare "$out/$1.exr" "$out/${1}_var.exr" "$out/$2.exr" "$out/${2}_var.exr" "${@:4}" |
+    tee "$out/${2}_compare.txt"
   record "$3" "${PIPESTATUS[0]}"
 }
+# Renders with independent seeds are judged by compare's statistical test alone: a bound on the image means of
+# 100% never decides at these images' noise. A fixed 1% bound (compare's default) cannot serve every pair: the
+# means of bsdf sampling (sponza: 8% apart at 1.5 standard errors) and of glossy's sun glints have standard errors
+# above 1%. This is the verdict these checks always had: compare used to widen its bound to 4 standard errors,
+# which the statistical test's |image z| < 4 then always met. Same-seed pairs keep the 1% bound.
+independent=(--max-rel-diff 1)
 # `listed`: what this build has (GPU_CHECK_SCENES narrows step 2 only, not the other steps' scenes).
 builtin=$("$penumbra" scenes | awk '{print $1}')
 scenes=$(if [[ -n ${GPU_CHECK_SCENES:-} ]]; then tr ' ' '\n' <<<"$GPU_CHECK_SCENES"; else echo "$builtin"; fi)
@@ -127,7 +133,7 @@ for scene in $scenes; do
     if ! render "$scene" "$strategy" "$mis" optix 1 "$gpu" "${extra[@]}"; then
       cat "$out/$gpu.log"; record "$scene $strategy+$mis: optix render" 1; continue
     fi
-    compare_pair "$cpu" "$gpu" "$scene $strategy+$mis: cpu == optix"
+    compare_pair "$cpu" "$gpu" "$scene $strategy+$mis: cpu == optix" "${independent[@]}"
   done
 done
 # Same seed: the GPU traces the very paths the CPU traced (same RNG streams).
@@ -176,18 +182,21 @@ fi
 selections=${GPU_CHECK_SELECTIONS:-"uniform bvh restir restir:--restir-spatial=0 restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise restir:--restir-pairwise,--restir-unshadowed restir:--restir-unshadowed,--restir-source=bvh,--restir-candidates=8 restir:--restir-biased restir:--restir-temporal restir:--traversal=optix restir:--megakernel,--restir-spatial=0"}
 selection_scenes=${GPU_CHECK_SELECTION_SCENES:-"many-spheres sponza-lanterns glossy"}
 # The control of a failed CPU-GPU pair NAME (CPU seed 0, GPU seed 1): the CPU rendered with seed 1; sets `same`
-# (that render against the GPU's) and `own` (against the CPU's seed 0), echoes both; fails if the render does.
+# (that render against the GPU's) and `own` (against the CPU's seed 0), compare's output, and their exit statuses
+# `same_st` and `own_st`; echoes both; fails if the render does.
 seed1_control() {
   local name=$1
   render "$scene" solid-angle power cpu 1 "${name}_cpu_seed1" --light-selection "$method" "${scene_args[@]}" \
     "${extra[@]}" || return 1
   same=$("$penumbra" compare "$out/${name}_cpu_seed1.exr" "$out/${name}_cpu_seed1_var.exr" \
     "$out/${name}_optix.exr" "$out/${name}_optix_var.exr")
+  same_st=$?
   own=$("$penumbra" compare "$out/${name}_cpu.exr" "$out/${name}_cpu_var.exr" \
-    "$out/${name}_cpu_seed1.exr" "$out/${name}_cpu_seed1_var.exr")
+    "$out/${name}_cpu_seed1.exr" "$out/${name}_cpu_seed1_var.exr" "${independent[@]}")
+  own_st=$?
   echo "control: $same"; echo "control: $own"
 }
-image_z() { sed -n 's/.*image z \(-\{0,1\}[0-9.]*\).*/\1/p' | head -n 1; }  # a compare line's image z
+image_z() { sed -n 's/.*image z \(-\{0,1\}[0-9.]*\).*/\1/p' | head -n 1; }  # compare's image z (its first line)
 within3() { awk -v z="${1:-99}" 'BEGIN { exit !(z < 3 && z > -3) }'; }
 for scene in $selection_scenes; do
   if ! listed "$scene"; then echo "skip: $scene is not a built-in scene of this build"; continue; fi
@@ -206,7 +215,7 @@ for scene in $selection_scenes; do
     if [[ $ok == 1 ]]; then
       label="$scene light selection $spec: cpu == optix"
       "$penumbra" compare "$out/${name}_cpu.exr" "$out/${name}_cpu_var.exr" "$out/${name}_optix.exr" \
-        "$out/${name}_optix_var.exr" | tee "$out/${name}_optix_compare.txt"
+        "$out/${name}_optix_var.exr" "${independent[@]}" | tee "$out/${name}_optix_compare.txt"
       st=${PIPESTATUS[0]}
       if [[ $spec == *--restir-temporal* ]]; then
         # Temporal reuse correlates a pixel's samples within a render (each takes the last one's reservoir), so
@@ -228,7 +237,7 @@ for scene in $selection_scenes; do
         # (the same paths) and the CPU's own seeds 0 and 1 fail alike: the failure is then the image's noise
         # (glossy's sun glints are heavy-tailed: per-pixel variances understate the spread of the image mean),
         # not the GPU's estimator.
-        [[ $same == *PASS*"rel. diff 0.00"* && $own == *FAIL* ]] && st=0
+        [[ $same_st == 0 && $same == *"rel. diff 0.00"* && $own_st == 3 ]] && st=0
         label="$label (control: optix == cpu with seed 1; the CPU's seeds 0 and 1 fail alike)"
       fi
       record "$label" "$st"

@@ -12,7 +12,8 @@
 #      bits differ: fast math, float sums): megakernel vs wavefront (optix traversal), wavefront optix vs cuda
 #      traversal; and CPU vs wavefront (PASS); on WAVEFRONT_CHECK_SCENES x techniques, restir without spatial
 #      reuse too;
-#   3. independent seeds (CPU 0, wavefront 1): `penumbra compare` PASS (the z-test of gpu_check.sh);
+#   3. independent seeds (CPU 0, wavefront 1): `penumbra compare`'s statistical test PASS (as gpu_check.sh:
+#      --max-rel-diff 1, the bound on the means left to the statistical test);
 #   4. waves: a pool of 5,000 paths (PENUMBRA_WAVEFRONT_PATHS: many waves a launch, pixels cut anywhere, through
 #      the launch sums) renders the default pool's image (one wave a launch: straight into the film) byte for byte
 #      (the accumulation sums each pixel's samples in order); the cuda stage's shadow rays traced and applied in
@@ -71,8 +72,9 @@ render() {
   [[ $st != 0 ]] && tail -n 3 "$out/$name.log"
   return $st
 }
-compare() {  # compare A B -> stdout: penumbra compare's line
-  "$penumbra" compare "$out/$1.exr" "$out/$1_var.exr" "$out/$2.exr" "$out/$2_var.exr" | tee "$out/$2_vs_$1.txt"
+compare() {  # compare A B [compare options...] -> stdout: penumbra compare's lines
+  "$penumbra" compare "$out/$1.exr" "$out/$1_var.exr" "$out/$2.exr" "$out/$2_var.exr" "${@:3}" |
+    tee "$out/$2_vs_$1.txt"
   return "${PIPESTATUS[0]}"
 }
 same_paths() {  # same_paths A B LABEL: PASS with a relative difference of 0.00
@@ -111,7 +113,11 @@ for scene in $check_scenes; do
     compare "${n}_cpu" "${n}_wf_cuda" >/dev/null
     record "$n, same seed: cpu == wavefront cuda" $?
     if render "${n}_wf_seed1" "$scene" "$strategy" "$mis" 1 --backend optix --wavefront "${extra[@]}"; then
-      compare "${n}_cpu" "${n}_wf_seed1" >/dev/null
+      # Independent seeds: the statistical test alone, as in gpu_check.sh (`independent` there): bsdf:none's
+      # image mean on sponza has a standard error of about 10% at 256 spp (5.5% at gpu_check.sh's 1024), far
+      # above compare's default 1% bound. The verdict this check always had: compare used to widen its bound to
+      # 4 standard errors.
+      compare "${n}_cpu" "${n}_wf_seed1" --max-rel-diff 1 >/dev/null
       record "$n, seeds 0 / 1: cpu == wavefront" $?
     else
       record "$n: wavefront seed 1 render" 1

@@ -79,9 +79,12 @@ INSTANTIATE_TEST_SUITE_P(Builtins, StrategiesAgree,
 // two heuristics with each other at 0.2.
 class MisAgrees : public ::testing::TestWithParam<std::string> {};
 
+// The statistical test decides (compare.h): at 32x32 pixels the image means' standard error is 0.4% to 1.2%, too
+// close to compare's 1% bound on their difference for the bound to tell equal images apart. The verdict this test
+// always had: compare used to widen the bound to 4 standard errors, which |image z| < 4 then always met.
 void expect_same_image(const Film& a, const Film& b, const std::string& what) {
   CompareResult r = compare_images(a.mean(), a.variance_of_mean(), b.mean(), b.variance_of_mean());
-  EXPECT_TRUE(r.pass) << what << ": " << r.summary();
+  EXPECT_TRUE(r.statistical_pass) << what << ": " << r.summary();
   EXPECT_LT(r.mean_z2, 1.4) << what << ": " << r.summary();
   EXPECT_GT(r.mean_a, 0.001) << what << ": the image is black";
 }

@@ -480,11 +480,15 @@ def _mean_and_variance(x: Any) -> Tuple[Any, Any]:
 
 def compare(a: Union[Image, Tuple[Any, Any]], b: Union[Image, Tuple[Any, Any]], *, max_mean_rel_diff: float = 0.01,
             max_image_z: float = 4.0, outlier_z: float = 5.0, max_outlier_fraction: float = 0.002) -> Dict[str, Any]:
-    """Are two renders the same image, statistically? ``penumbra compare``'s test
-    (src/render/compare.h): per-pixel z = (a - b) / sqrt(var_a + var_b), the z of
-    the image means and their relative difference. ``a`` and ``b`` are Images or
-    (mean, variance) array pairs. Returns a dict with ``pass``, ``mean_z2``,
-    ``image_z``, ``max_abs_z``, ``outliers``, ``summary`` (one line), ..."""
+    """Are two renders the same image? ``penumbra compare``'s two tests
+    (src/render/compare.h): the statistical test (per-pixel z = (a - b) /
+    sqrt(var_a + var_b), the image means within ``max_image_z`` standard errors)
+    and the bound on the image means' relative difference (``max_mean_rel_diff``,
+    never widened by their noise). ``a`` and ``b`` are Images or (mean, variance)
+    array pairs. Returns a dict with ``pass`` (both), ``statistical_pass``,
+    ``bound_pass``, ``mean_rel_diff``, ``mean_rel_se``, ``mean_z2``, ``image_z``,
+    ``max_abs_z``, ``outliers``, ``summary`` (one line), ``report`` (the summary and
+    each test's line), ..."""
     am, av = _mean_and_variance(a)
     bm, bv = _mean_and_variance(b)
     return _penumbra.compare(am, av, bm, bv, max_mean_rel_diff, max_image_z, outlier_z, max_outlier_fraction)

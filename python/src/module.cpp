@@ -418,16 +418,20 @@ them without a copy to the host.)")
         o.max_outlier_fraction = max_outlier_fraction;
         CompareResult r = compare_images(va, vav, vb, vbv, o);
         json j = {{"pass", r.pass},
+                  {"statistical_pass", r.statistical_pass},
+                  {"bound_pass", r.bound_pass},
                   {"mean_a", r.mean_a},
                   {"mean_b", r.mean_b},
                   {"mean_rel_diff", r.mean_rel_diff},
+                  {"mean_rel_se", r.mean_rel_se},
                   {"image_z", r.image_z},
                   {"mean_z2", r.mean_z2},
                   {"max_abs_z", r.max_abs_z},
                   {"outliers", r.outliers},
                   {"channels", r.channels},
                   {"zero_var_mismatches", r.zero_var_mismatches},
-                  {"summary", r.summary()}};
+                  {"summary", r.summary()},
+                  {"report", r.summary() + "\n" + r.statistical_summary() + "\n" + r.bound_summary()}};
         return to_py(j);
       },
       "a"_a, "a_var"_a, "b"_a, "b_var"_a, "max_mean_rel_diff"_a, "max_image_z"_a, "outlier_z"_a,

@@ -55,7 +55,10 @@ def test_gpu_render_agrees_with_the_cpu():
         gpu = penumbra.render("cornell-near", strategy=strategy, spp=1024, seed=1, backend="optix", **SIZE)
         cpu = penumbra.render("cornell-near", strategy=strategy, spp=1024, seed=2, backend="cpu", **SIZE)
         r = penumbra.compare(gpu, cpu)
-        assert r["pass"], r["summary"]
+        # The statistical test decides, as in scripts/gpu_check.sh: at 96x54 pixels the image mean of area
+        # sampling has a standard error near 0.5%, too close to the default 1% bound on the means; the verdict
+        # this test always had (compare used to widen the bound to 4 standard errors).
+        assert r["statistical_pass"], r["report"]
 
 
 def test_gpu_progressive_renderer():

@@ -38,7 +38,8 @@ def test_the_z_test_sees_a_different_image(solid_angle):
     # The negative control: a light 30% brighter must fail.
     brighter = render("area", seed=2, overrides={"light.power": [78.9 * 1.3, 66.9 * 1.3, 34.3 * 1.3]})
     r = penumbra.compare(brighter, solid_angle)
-    assert not r["pass"], r["summary"]
+    assert not r["statistical_pass"], r["report"]  # the z-test itself, not only the bound on the means
+    assert not r["pass"], r["report"]
 
 
 def test_compare_is_the_z_test_it_describes(solid_angle):
@@ -49,5 +50,18 @@ def test_compare_is_the_z_test_it_describes(solid_angle):
     z = (a.astype(np.float64) - b)[v > 0] / np.sqrt(v[v > 0])
     assert r["mean_z2"] == pytest.approx(np.mean(z * z), rel=1e-4)
     assert r["max_abs_z"] == pytest.approx(np.abs(z).max(), rel=1e-4)
+    # The bound on the means is a test of its own, as given: never widened by their noise.
+    ma, mb = a.astype(np.float64).mean(), b.astype(np.float64).mean()
+    se = np.sqrt(va.astype(np.float64).sum() + vb.sum()) / a.size / abs(mb)
+    assert r["mean_rel_diff"] == pytest.approx(abs(ma - mb) / abs(mb), rel=1e-4)
+    assert r["mean_rel_se"] == pytest.approx(se, rel=1e-4)
+    assert r["bound_pass"] == (r["mean_rel_diff"] <= 0.01)
+    assert r["statistical_pass"] == (abs(r["image_z"]) < 4 and r["outliers"] <= 0.002 * r["channels"]
+                                     and r["zero_var_mismatches"] == 0)
+    assert r["pass"] == (r["statistical_pass"] and r["bound_pass"])
+    tight = penumbra.compare(area, solid_angle, max_mean_rel_diff=r["mean_rel_diff"] / 2)
+    assert not tight["bound_pass"] and not tight["pass"], tight["report"]
+    assert tight["statistical_pass"] == r["statistical_pass"]
+    assert tight["report"].split("\n")[2].startswith("bound on the means"), tight["report"]
     # Arrays work as well as images.
     assert penumbra.compare((a, va), (b, vb))["mean_z2"] == pytest.approx(r["mean_z2"])

@@ -8,15 +8,15 @@ enum ExitStatus : int {
   kExitOk = 0,
   kExitError = 1,        // bad input, an output that cannot be written, too little memory: one line on stderr
   kExitUsage = 2,        // the command line itself is wrong (unknown option, missing argument)
-  kExitDiffer = 3,       // `compare`: the two images are not statistically equal
+  kExitDiffer = 3,       // `compare`: the two images differ (the statistical test or the bound on the means failed)
   kExitNonFinite = 4,    // the outputs were written, but some samples were NaN or infinite and left out
   kExitInterrupted = 130,  // Ctrl-C (SIGINT) or SIGTERM: stopped; files already written are complete
 };
 
 inline const char* const kExitStatusHelp =
     "Exit status: 0 success; 1 error (one line on stderr naming the file and field; an existing output file is\n"
-    "never left half-written); 2 bad command line; 3 compare: the images differ; 4 the outputs were written but\n"
-    "some samples were NaN or infinite and were left out (a warning says how many and where); 130 interrupted\n"
-    "(Ctrl-C).";
+    "never left half-written); 2 bad command line; 3 compare: the images differ (either test); 4 the outputs were\n"
+    "written but some samples were NaN or infinite and were left out (a warning says how many and where); 130\n"
+    "interrupted (Ctrl-C).";
 
 }  // namespace pn
