@@ -613,13 +613,16 @@ Command add_bench_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::IsMember({"cpu", "optix", "auto"}));
   sub->add_option("--scenes", a->scenes, "Scenes, comma-separated (default: every built-in scene)");
-  sub->add_option("--strategies", a->strategies, "Strategies, comma-separated (default: " + strategy_names() + ")");
+  sub->add_option("--strategies", a->strategies, "Strategies, comma-separated (default: " + strategy_names() + ")")
+      ->check(strategy_names_check());
   sub->add_option("--mis", a->mis,
                   "MIS modes, comma-separated, each with every strategy that samples lights (default: " + mis_names() +
-                      ")");
+                      ")")
+      ->check(mis_names_check());
   sub->add_option("--selections", a->selections,
                   "Light-selection methods, comma-separated (" + light_selection_names() +
-                      "; default: each scene's own); restir's settings are the scene's (--set render.restir.*)");
+                      "; default: each scene's own); restir's settings are the scene's (--set render.restir.*)")
+      ->check(light_selection_names_check());
   sub->add_option("--width", a->width, "Image width (default: 1920 on the GPU, 320 on the CPU)")
       ->check(CLI::Range(1, 16384));
   sub->add_option("--height", a->height, "Image height (default: 1080 on the GPU, 180 on the CPU)")

@@ -24,12 +24,16 @@ Command add_converge_command(CLI::App& app) {
       "(scripts/study.py runs the whole study and draws the report)");
   sub->add_option("scene", a->scene, "Built-in scene name or scene file")->required();
   sub->add_option("--out", a->out, "Output folder (default: converge-<scene>)");
-  sub->add_option("--strategies", a->strategies, "Strategies to compare")->delimiter(',')->capture_default_str();
+  sub->add_option("--strategies", a->strategies, "Strategies to compare")
+      ->delimiter(',')
+      ->capture_default_str()
+      ->check(strategy_names_check());
   sub->add_option("--mis", a->mis,
                   "MIS modes, each with every strategy that samples lights (" + mis_names() +
                       "); a technique is named 'area' (MIS none) or 'area+power'")
       ->delimiter(',')
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(mis_names_check());
   sub->add_option("--max-spp", a->max_spp, "Largest spp (renders at 1, 2, 4, ... up to it)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1 << 24));
@@ -44,11 +48,16 @@ Command add_converge_command(CLI::App& app) {
                   "order (scripts/study.py --executor ray renders them as tasks and merges them to the same bits)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1 << 24));
-  sub->add_option("--reference-strategy", a->reference_strategy, "Strategy of the ground truth")->capture_default_str();
-  sub->add_option("--reference-mis", a->reference_mis, "MIS mode of the ground truth")->capture_default_str();
+  sub->add_option("--reference-strategy", a->reference_strategy, "Strategy of the ground truth")
+      ->capture_default_str()
+      ->check(strategy_names_check());
+  sub->add_option("--reference-mis", a->reference_mis, "MIS mode of the ground truth")
+      ->capture_default_str()
+      ->check(mis_names_check());
   sub->add_option("--reference-selection", a->reference_selection,
                   "Light selection of the ground truth: uniform, power or bvh (the runs select by the scene's)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(light_selection_names_check(false));
   sub->add_option("--cache", a->cache, "Folder for cached ground truths (default: $XDG_CACHE_HOME/penumbra or ~/.cache/penumbra)");
   sub->add_option("--width", a->width, "Image width (default: the scene's)")->check(CLI::Range(1, 16384));
   sub->add_option("--height", a->height, "Image height (default: the scene's)")->check(CLI::Range(1, 16384));
@@ -79,7 +88,13 @@ Command add_converge_command(CLI::App& app) {
   return {sub, [a]() {
     ConvergeOptions o = *a;
     if (o.out.empty()) o.out = "converge-" + std::filesystem::path(o.scene).stem().string();
-    ConvergeResult r = run_converge(o);
+    ConvergeResult r;
+    try {
+      r = run_converge(o);
+    } catch (const ConvergeOptionError& e) {  // options that do not go together: the command line is wrong
+      std::fprintf(stderr, "penumbra: error: %s\n", e.what());
+      return int(kExitUsage);
+    }
     if (o.estimate_only) {
       std::printf("%s\n", r.summary.dump().c_str());
       return int(kExitOk);

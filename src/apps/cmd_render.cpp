@@ -212,14 +212,20 @@ Command add_render_command(CLI::App& app) {
   auto a = std::make_shared<RenderArgs>();
   auto* sub = app.add_subcommand("render", "Render a scene to an image file (.exr linear float, .png sRGB)");
   sub->add_option("scene", a->scene, "Built-in scene name (see `penumbra scenes`) or a scene file (.json)")->required();
-  sub->add_option("-o,--output", a->output, "Output image, .exr or .png (default: <scene>.png)");
+  sub->add_option("-o,--output", a->output, "Output image, .exr or .png (default: <scene>.png)")
+      ->check(image_path_check());
   add_integrator_options(sub, &a->integrator);
-  sub->add_option("--spp", a->spp, "Samples per pixel (default: the scene's)");
-  sub->add_option("--width", a->width, "Image width in pixels (default: the scene's)");
-  sub->add_option("--height", a->height, "Image height in pixels (default: the scene's)");
-  sub->add_option("--seed", a->seed, "Random seed, 0..4294967295 (default: the scene's)");
-  sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces (default: the scene's)");
-  sub->add_option("--rr-depth", a->rr_depth, "Russian roulette starts at this bounce (default: the scene's)");
+  // Checked as the scene checks its render block (render.spp, ...): a wrong value is a usage error.
+  sub->add_option("--spp", a->spp, "Samples per pixel (default: the scene's)")->check(render_setting("spp"));
+  sub->add_option("--width", a->width, "Image width in pixels (default: the scene's)")->check(render_setting("width"));
+  sub->add_option("--height", a->height, "Image height in pixels (default: the scene's)")
+      ->check(render_setting("height"));
+  sub->add_option("--seed", a->seed, "Random seed, 0..4294967295 (default: the scene's)")
+      ->check(render_setting("seed"));
+  sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces (default: the scene's)")
+      ->check(render_setting("max_depth"));
+  sub->add_option("--rr-depth", a->rr_depth, "Russian roulette starts at this bounce (default: the scene's)")
+      ->check(render_setting("rr_depth"));
   sub->add_option("--backend", a->backend, "cpu, optix, or auto: optix when a GPU and OptiX work, else cpu")
       ->capture_default_str()
       ->check(CLI::IsMember({"cpu", "optix", "auto"}));
@@ -233,7 +239,8 @@ Command add_render_command(CLI::App& app) {
       ->capture_default_str()
       ->check(finite_number())
       ->check(CLI::Range(-64.f, 64.f));
-  sub->add_option("--variance", a->variance, "Also write the per-pixel variance of the mean (EXR)");
+  sub->add_option("--variance", a->variance, "Also write the per-pixel variance of the mean (EXR)")
+      ->check(image_path_check());
   sub->add_flag("--stats", a->stats, "Print scene and timing statistics");
   sub->add_flag("--denoise", a->denoise,
                 "Also write <output>_denoised.<ext>: the OptiX AI denoiser, albedo and normal guides (GPU backend)");

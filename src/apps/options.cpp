@@ -1,12 +1,98 @@
 #include "apps/options.h"
 
+#include <cerrno>
+#include <cstdlib>
+#include <functional>
+#include <sstream>
 #include <stdexcept>
 
 #include "core/integrator.h"
+#include "io/image.h"
 #include "render/backend.h"
 #include "scene/scene.h"
 
 namespace pn {
+
+CLI::Validator render_setting(const std::string& key, bool name) {
+  return CLI::Validator(
+      [key, name](std::string& text) -> std::string {
+        // The text as JSON: a name quoted; an integer as the option stores it (CLI11 reads "+4" and "08" too);
+        // else as JSON reads it, and the scene says what it expected ("nan", "4.5" for --spp).
+        std::string value = nlohmann::json(text).dump();
+        if (!name) {
+          char* end = nullptr;
+          errno = 0;
+          const long long i = std::strtoll(text.c_str(), &end, 10);
+          value = !text.empty() && *end == '\0' && errno == 0 ? std::to_string(i) : text;
+        }
+        nlohmann::json doc = nlohmann::json::object();
+        try {
+          apply_override(doc, "render." + key + "=" + value, "option");
+          CameraDesc camera;
+          RenderSettings render;
+          parse_frame_settings(doc, "option", &camera, &render);
+        } catch (const SceneError& e) {
+          // "option: render.spp: must be in [1, 16777216] (got 0)": CLI11 puts "--spp: " before the rest.
+          const std::string why = e.what();
+          return why.substr(why.find(": ") + 2);
+        }
+        return std::string();
+      },
+      "");
+}
+
+namespace {
+
+CLI::Validator known_names(const std::string& what, std::function<bool(const std::string&)> known,
+                           const std::string& names) {
+  return CLI::Validator(
+      [what, known, names](std::string& text) -> std::string {
+        std::stringstream list(text);
+        for (std::string item; std::getline(list, item, ',');)
+          if (!item.empty() && !known(item))
+            return "unknown " + what + " '" + item + "' (expected one of: " + names + ")";
+        return std::string();
+      },
+      "");
+}
+
+}  // namespace
+
+CLI::Validator strategy_names_check() {
+  return known_names("strategy", [](const std::string& s) { Strategy x; return find_strategy(s, &x); },
+                     strategy_names());
+}
+
+CLI::Validator mis_names_check() {
+  return known_names("MIS mode", [](const std::string& s) { Mis x; return find_mis(s, &x); }, mis_names());
+}
+
+CLI::Validator light_selection_names_check(bool restir) {
+  std::string names;
+  for (int i = 0; i < kNumLightSelections; ++i)
+    if (restir || LightSelection(i) != LightSelection::Restir)
+      names += std::string(names.empty() ? "" : ", ") + light_selection_name(LightSelection(i));
+  return known_names(
+      "light selection",
+      [restir](const std::string& s) {
+        LightSelection x;
+        return find_light_selection(s, &x) && (restir || x != LightSelection::Restir);
+      },
+      names);
+}
+
+CLI::Validator image_path_check() {
+  return CLI::Validator(
+      [](std::string& path) -> std::string {
+        try {
+          check_image_path(path);
+        } catch (const std::runtime_error& e) {
+          return e.what();
+        }
+        return std::string();
+      },
+      "");
+}
 
 std::string mis_help() {
   std::string out;
@@ -19,27 +105,37 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
   std::string strategies;
   for (int i = 0; i < kNumStrategies; ++i)
     strategies += std::string("\n  ") + strategy_name(Strategy(i)) + ": " + strategy_description(Strategy(i));
-  sub->add_option("--strategy", o->strategy, "Direct-lighting strategy (default: the scene's):" + strategies);
+  sub->add_option("--strategy", o->strategy, "Direct-lighting strategy (default: the scene's):" + strategies)
+      ->check(render_setting("strategy", true));
   sub->add_option("--mis", o->mis,
                   "Multiple importance sampling of light and BSDF samples (default: the scene's; power for scenes "
-                  "that do not say, none for the thesis's cornell-sphere, cornell-near and occlusion): " + mis_help());
+                  "that do not say, none for the thesis's cornell-sphere, cornell-near and occlusion): " + mis_help())
+      ->check(render_setting("mis", true));
   std::string selections;
   for (int i = 0; i < kNumLightSelections; ++i)
     selections += std::string("\n  ") + light_selection_name(LightSelection(i)) + ": " +
                   light_selection_description(LightSelection(i));
   sub->add_option("--light-selection", o->light_selection,
-                  "How the light of each light sample is chosen (default: the scene's, else power):" + selections);
+                  "How the light of each light sample is chosen (default: the scene's, else power):" + selections)
+      ->check(render_setting("light_selection", true));
   auto* g = sub->add_option_group("restir", "ReSTIR DI (--light-selection restir); defaults: the scene's render.restir");
-  g->add_option("--restir-candidates", o->restir_candidates, "Candidates per pixel, M (default 32)");
-  g->add_option("--restir-spatial", o->restir_spatial, "Spatial reuse passes (default 2; 0: candidates only)");
-  g->add_option("--restir-neighbors", o->restir_neighbors, "Neighbours per pixel and pass, k (default 3)");
-  g->add_option("--restir-radius", o->restir_radius, "Radius of spatial reuse in pixels (default 30)");
-  g->add_option("--restir-source", o->restir_source, "Selection of the candidates: uniform, power or bvh (default power)");
-  g->add_flag("--restir-biased", o->restir_biased,
-              "BIASED combination (the paper's: no visibility in the reuse, Z = sum of M): cheaper, darker where "
-              "neighbours see other lights");
+  g->add_option("--restir-candidates", o->restir_candidates, "Candidates per pixel, M (default 32)")
+      ->check(render_setting("restir.candidates"));
+  g->add_option("--restir-spatial", o->restir_spatial, "Spatial reuse passes (default 2; 0: candidates only)")
+      ->check(render_setting("restir.spatial_passes"));
+  g->add_option("--restir-neighbors", o->restir_neighbors, "Neighbours per pixel and pass, k (default 3)")
+      ->check(render_setting("restir.neighbors"));
+  g->add_option("--restir-radius", o->restir_radius, "Radius of spatial reuse in pixels (default 30)")
+      ->check(render_setting("restir.radius"));
+  g->add_option("--restir-source", o->restir_source,
+                "Selection of the candidates: uniform, power or bvh (default power)")
+      ->check(render_setting("restir.source", true));
+  auto* biased = g->add_flag("--restir-biased", o->restir_biased,
+                             "BIASED combination (the paper's: no visibility in the reuse, Z = sum of M): cheaper, "
+                             "darker where neighbours see other lights");
   g->add_flag("--restir-pairwise", o->restir_pairwise,
-              "Pairwise MIS in the unbiased reuse: 2k shadow rays per pixel and pass instead of k^2 + k");
+              "Pairwise MIS in the unbiased reuse: 2k shadow rays per pixel and pass instead of k^2 + k")
+      ->excludes(biased);
   g->add_flag("--restir-unshadowed", o->restir_unshadowed,
               "No visibility reuse: unshadowed targets in the reuse (no shadow rays there), one shadow ray when "
               "shading; unbiased all the same");
@@ -47,7 +143,8 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
               "Temporal reuse: each sample's reservoirs also combine the same pixel's final ones of the previous "
               "sample (the camera is static: a progressive render, the viewer until the view changes)");
   g->add_option("--restir-temporal-cap", o->restir_temporal_cap,
-                "The history's M at most this times the new reservoir's (default 20)");
+                "The history's M at most this times the new reservoir's (default 20)")
+      ->check(render_setting("restir.temporal_cap"));
 }
 
 void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal) {

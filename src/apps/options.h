@@ -41,4 +41,22 @@ void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversa
 // "none, balance, power: what each does" lines for --help.
 std::string mis_help();
 
+// Option values are checked when the command line is parsed, so that a wrong one is a usage error (exit status 2)
+// whose one line names the option, before any scene is loaded or file written.
+
+// An option whose value becomes the scene value render.<key> (--spp: "spp", --restir-radius: "restir.radius"):
+// the value goes into an empty scene document as that override and through the scene's own parser of the render
+// block (parse_frame_settings), which stays the one place that knows the ranges; `name`: the value is a name
+// (a JSON string: --strategy).
+CLI::Validator render_setting(const std::string& key, bool name = false);
+
+// Names, one or a comma-separated list of them: strategies, MIS modes, light-selection methods (with or
+// without restir).
+CLI::Validator strategy_names_check();
+CLI::Validator mis_names_check();
+CLI::Validator light_selection_names_check(bool restir = true);
+
+// An image to write (-o, --variance): .exr or .png.
+CLI::Validator image_path_check();
+
 }  // namespace pn

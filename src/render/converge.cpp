@@ -159,20 +159,20 @@ Setup prepare(const ConvergeOptions& a) {
                      parse_mis(a.reference_mis, "--reference-mis")};
   s.ref_selection = parse_light_selection(a.reference_selection, "--reference-selection");
   if (s.ref_selection == LightSelection::Restir)
-    throw std::invalid_argument("converge: --reference-selection must be uniform, power or bvh, not restir (its frame "
-                                "passes are what the runs compare, not a ground truth)");
+    throw ConvergeOptionError("converge: --reference-selection must be uniform, power or bvh, not restir (its frame "
+                              "passes are what the runs compare, not a ground truth)");
   if (a.max_spp < 1 || a.seeds < 1 || a.reference_spp < 1 || a.crop_spp < 1 || a.reference_chunk < 1)
-    throw std::invalid_argument(
+    throw ConvergeOptionError(
         "converge: --max-spp, --seeds, --reference-spp, --reference-chunk and --crop-spp must be >= 1");
   if (a.frame_spp != 0 && (a.frame_spp < 2 || a.frame_spp > a.max_spp || (a.frame_spp & (a.frame_spp - 1)) != 0))
-    throw std::invalid_argument("converge: --frame-spp must be 0 or one of the spp levels from 2 to --max-spp (" +
-                                std::to_string(a.max_spp) + "): a power of two, not " + std::to_string(a.frame_spp));
+    throw ConvergeOptionError("converge: --frame-spp must be 0 or one of the spp levels from 2 to --max-spp (" +
+                              std::to_string(a.max_spp) + "): a power of two, not " + std::to_string(a.frame_spp));
   s.crop = a.crop.empty() ? auto_crop(s.scene) : a.crop;
   const std::vector<int>& crop = s.crop;
   if (crop.size() != 4 || crop[2] < 1 || crop[3] < 1 || crop[0] < 0 || crop[1] < 0 || crop[0] + crop[2] > W ||
       crop[1] + crop[3] > H)
-    throw std::invalid_argument("converge: --crop must be x,y,w,h inside the " + std::to_string(W) + "x" +
-                                std::to_string(H) + " image");
+    throw ConvergeOptionError("converge: --crop must be x,y,w,h inside the " + std::to_string(W) + "x" +
+                              std::to_string(H) + " image");
   check_gpus(a.gpus);
 
   // The ground truth's cache key covers everything that changes the expected

@@ -10,6 +10,7 @@
 // strategy needs to reach an error threshold; crops for the visual comparison.
 #pragma once
 
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -87,6 +88,13 @@ struct ConvergePlan {
   std::vector<std::pair<std::string, std::string>> technique_parts;  // (strategy, MIS mode) of each
 };
 
+// Options that cannot go together or do not fit the scene (--frame-spp beyond --max-spp, a --crop outside the
+// image, ...): the command line is wrong, not the scene (`penumbra converge` exits 2; Python: ValueError).
+class ConvergeOptionError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
 // Loads the scene and checks the options as run_converge() does (same errors).
 ConvergePlan plan_converge(const ConvergeOptions& options);
 
@@ -107,7 +115,8 @@ ReferenceChunk render_reference_chunk(const ConvergeOptions& options, int index)
 void store_reference(const ConvergeOptions& options, const Film& film);
 
 // Runs the experiment; with a non-empty `out`, also writes its files there.
-// Throws SceneError for a bad scene, std::invalid_argument for bad options and
+// Throws SceneError for a bad scene, ConvergeOptionError for bad options,
+// std::invalid_argument for a run refused without `yes`, and
 // std::runtime_error when a backend fails.
 ConvergeResult run_converge(const ConvergeOptions& options);
 

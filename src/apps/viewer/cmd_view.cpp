@@ -1,5 +1,6 @@
 // `penumbra view`: registered in every build, so that a penumbra built without
 // GLFW/OpenGL/Dear ImGui says so in one line instead of "unknown subcommand".
+#include <algorithm>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -60,15 +61,23 @@ Command add_view_command(CLI::App& app) {
   sub->add_option("--spp-per-frame", a->o.spp_per_frame, "Samples per pixel added each frame")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
-  sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces (default: the scene's)");
-  sub->add_option("--seed", a->seed, "Random seed, 0..4294967295 (default: the scene's)");
+  sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces (default: the scene's)")
+      ->check(render_setting("max_depth"));
+  sub->add_option("--seed", a->seed, "Random seed, 0..4294967295 (default: the scene's)")
+      ->check(render_setting("seed"));
   sub->add_option("--exposure", a->o.exposure, "Display exposure in stops")
       ->capture_default_str()
       ->check(finite_number())
       ->check(CLI::Range(-64.f, 64.f));
   sub->add_option("--threads", a->o.threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   add_wavefront_options(sub, &a->o.wavefront, &a->o.traversal);
-  sub->add_option("--split", a->o.split, "Start in split screen: LEFT,RIGHT strategies, e.g. area,solid-angle");
+  sub->add_option("--split", a->o.split, "Start in split screen: LEFT,RIGHT strategies, e.g. area,solid-angle")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            return std::count(v.begin(), v.end(), ',') == 1 ? "" : "expected LEFT,RIGHT (e.g. area,solid-angle)";
+          },
+          ""))
+      ->check(strategy_names_check());
   sub->add_flag("--equal-time", a->o.equal_time, "Split screen at equal time instead of equal samples per pixel");
   sub->add_option("--display", a->o.display,
                   "How the image reaches the screen: auto (CUDA-OpenGL interop with the OptiX backend where it works, "
