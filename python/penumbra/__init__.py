@@ -347,8 +347,10 @@ class ConvergeResult:
     @property
     def fits(self) -> Dict[str, Dict[str, Any]]:
         """Per strategy: the log-log fits of RMSE against spp (fit_rmse,
-        fit_rmse_nolight: slope, intercept, spp_to_threshold, ms_to_threshold),
-        ms_per_spp, efficiency and efficiency_nolight."""
+        fit_rmse_nolight: slope, intercept, spp_to_threshold, ms_to_threshold,
+        read off the fitted line; fit_spp, the spp it was fitted to; extrapolated,
+        whether spp_to_threshold lies beyond them), ms_per_spp, efficiency and
+        efficiency_nolight."""
         return {name: {k: v for k, v in s.items() if k != "points"}
                 for name, s in self.summary.get("strategies", {}).items()}
 

@@ -328,6 +328,15 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
 
   std::vector<int> spps;
   for (int s = 1; s <= a.max_spp; s *= 2) spps.push_back(s);
+  // The crops are of the crop_spp render: none where the levels miss it.
+  if (!out.empty() && !a.estimate_only && std::find(spps.begin(), spps.end(), a.crop_spp) == spps.end()) {
+    if (a.crop_spp > a.max_spp)
+      log("warning: --max-spp %d is below --crop-spp %d: no crops are written (crop_*.npy, image_*spp.png)\n",
+          a.max_spp, a.crop_spp);
+    else
+      log("warning: --crop-spp %d is not one of the spp levels (1, 2, 4, ..., %d): no crops are written "
+          "(crop_*.npy, image_*spp.png)\n", a.crop_spp, spps.back());
+  }
 
   // --- How long it will take -----------------------------------------------------
   // Each technique's cost per render call, measured; then the reference (a
@@ -554,10 +563,14 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     auto fit_json = [&](const std::vector<double>& y, const char* name) {
       if (lx.size() < 2) return;
       LineFit fit = fit_line(lx, y);
-      // Time to reach the threshold, from the fitted line: N = exp((ln t - a) / b).
+      // Time to reach the threshold, from the fitted line: N = exp((ln t - a) / b). Extrapolated where N lies
+      // beyond the spp the line was fitted to: read off the line, not seen in any render.
       double n = fit.b < 0 ? std::exp((std::log(a.threshold) - fit.a) / fit.b) : INFINITY;
+      const double lo = std::exp(lx.front()), hi = std::exp(lx.back());
+      const bool extrapolated = !(n >= lo * (1 - 1e-9) && n <= hi * (1 + 1e-9));
       js[name] = {{"slope", fit.b}, {"intercept", fit.a}, {"spp_to_threshold", n},
-                  {"ms_to_threshold", n * ms_per_spp}};
+                  {"ms_to_threshold", n * ms_per_spp}, {"extrapolated", extrapolated},
+                  {"fit_spp", {std::lround(lo), std::lround(hi)}}};
     };
     fit_json(ly, "fit_rmse");
     fit_json(lyn, "fit_rmse_nolight");
@@ -588,15 +601,20 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     write_file_atomic(out + "/summary.json", summary.dump(2) + "\n");
   }
 
-  // One line per strategy: what a person wants to know first.
+  // One line per strategy: what a person wants to know first. The time to the
+  // threshold is the fitted line's, interpolated within the spp fitted or extrapolated beyond them.
   for (const Technique& tq : techniques) {
     const std::string name = technique_name(tq);
     const json& js = summary["strategies"][name];
     if (!js.contains("fit_rmse")) continue;
-    log("%-28s slope %.3f (no-light %.3f), %.3f ms/spp, RMSE %.3g reached in %.3g spp = %.4g ms\n", name.c_str(),
-        js["fit_rmse"]["slope"].get<double>(), js["fit_rmse_nolight"]["slope"].get<double>(),
-        js["ms_per_spp"].get<double>(), a.threshold, js["fit_rmse"]["spp_to_threshold"].get<double>(),
-        js["fit_rmse"]["ms_to_threshold"].get<double>());
+    const json& fit = js["fit_rmse"];
+    char where[96];
+    std::snprintf(where, sizeof where, "%s the %d..%d spp fitted",
+                  fit["extrapolated"].get<bool>() ? "extrapolated beyond" : "interpolated within",
+                  fit["fit_spp"][0].get<int>(), fit["fit_spp"][1].get<int>());
+    log("%-28s slope %.3f (no-light %.3f), %.3f ms/spp, RMSE %.3g in %.3g spp = %.4g ms (%s)\n", name.c_str(),
+        fit["slope"].get<double>(), js["fit_rmse_nolight"]["slope"].get<double>(), js["ms_per_spp"].get<double>(),
+        a.threshold, fit["spp_to_threshold"].get<double>(), fit["ms_to_threshold"].get<double>(), where);
   }
   return result;
 }

@@ -118,6 +118,11 @@ void store_reference(const ConvergeOptions& options, const Film& film);
 // Throws SceneError for a bad scene, ConvergeOptionError for bad options,
 // std::invalid_argument for a run refused without `yes`, and
 // std::runtime_error when a backend fails.
+//
+// Each technique's time to the RMSE threshold (summary.json: fit_rmse and
+// fit_rmse_nolight) is read off its fitted line, never measured: "fit_spp" is
+// the range of spp the line was fitted to, and "extrapolated" is true where
+// spp_to_threshold lies outside it (or is infinite); the text says so too.
 ConvergeResult run_converge(const ConvergeOptions& options);
 
 // The header of measurements.csv and one of its rows.
