@@ -66,6 +66,7 @@ expect_usage("converge: --frame-spp" "a power of two, not 3" ${PENUMBRA} converg
              --width 16 --height 16 --frame-spp 3 --out ${WORK}/cv)
 expect_usage("converge: --crop" "inside the 16x16 image" ${PENUMBRA} converge cornell-sphere --backend cpu
              --width 16 --height 16 --crop 0,0,32,8 --out ${WORK}/cv)
+expect_usage(--dump "nope: not a built-in scene" ${PENUMBRA} scenes --dump nope)
 expect_usage(--split "unknown strategy 'nope'" ${PENUMBRA} view cornell-sphere --split area,nope)
 expect_usage(--split "expected LEFT,RIGHT" ${PENUMBRA} view cornell-sphere --split area)
 if(EXISTS ${WORK}/x.png OR EXISTS ${WORK}/x.bmp OR EXISTS ${WORK}/cv)
