@@ -10,6 +10,7 @@
 #include <random>
 
 #include "core/geometry.h"
+#include "core/reservoir.h"
 
 namespace pn {
 namespace {
@@ -195,6 +196,30 @@ TEST(Geometry, SphereHitsAreOnTheSphereAndOriginsOutside) {
     ASSERT_GT(len(D3(out) - D3(c)), double(r)) << i;  // outside it
     const Vec3 in = offset_ray_origin(p, -n, error_along(err, n));
     ASSERT_LT(len(D3(in) - D3(c)), double(r)) << i;  // or inside, as asked
+  }
+}
+
+// What a shadow ray leaves out of the segment from a shading point p to a light point y: the first
+// offset (at most twice p's bound along the normal, plus rounding) and the last kShadowEpsilon of its length.
+// An occluder inside those ends is not seen; that is the whole of the shadow ray's bias.
+TEST(Geometry, ShadowRaysLeaveOutOnlyTheirEnds) {
+  std::mt19937 g(13);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  for (int i = 0; i < 100000; ++i) {
+    const float scale = std::pow(10.f, 2.f * u(g));
+    const Vec3 p = Vec3(u(g), u(g), u(g)) * scale, n = normalize(Vec3(u(g), u(g), u(g)));
+    Vec3 y = p + Vec3(u(g), u(g), u(g)) * (scale * std::pow(10.f, u(g)));
+    if (dot(y - p, n) < 0.f) y = y - n * (2.f * dot(y - p, n));  // on the side the shadow ray leaves towards
+    const float p_error = std::fabs(u(g)) * 1e-5f * scale;
+    const ShadowRay r = light_shadow_ray(p, p_error, n, normalize(y - p), y, false);
+    const double dist = len(D3(y) - D3(p));
+    const double start = len(D3(r.ray.o) - D3(p));
+    const double ulp = 1.2e-7 * std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+    ASSERT_LE(start, 2.0 * p_error + 3.0 * ulp) << i;
+    const Vec3 end = r.ray.o + r.ray.d * r.tmax;
+    const double short_of_y = len(D3(y) - D3(end));
+    ASSERT_LE(short_of_y, 1.001 * kShadowEpsilon * dist + 4.0 * ulp + 1e-6 * dist) << i;
+    ASSERT_GE(short_of_y, 0.99 * kShadowEpsilon * dist - 4.0 * ulp) << i;  // never on or past the light
   }
 }
 
