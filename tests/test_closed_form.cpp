@@ -13,7 +13,9 @@
 //   - the mean of z^2 over pixels, z = (pixel - exact) / its standard error, lies
 //     in [0.8, 1.25] (a pattern of per-pixel errors that averages out fails).
 // The backend is the CPU's; PENUMBRA_TEST_BACKEND=optix runs the same cases on
-// the GPU (CTest label gpu), PENUMBRA_TEST_SPP_SCALE multiplies every case's spp.
+// the GPU (CTest label gpu; PENUMBRA_TEST_TRAVERSAL=cuda|optix|auto the
+// wavefront's trace stage, PENUMBRA_TEST_MEGAKERNEL=1 the megakernel), and
+// PENUMBRA_TEST_SPP_SCALE multiplies every case's spp.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -172,9 +174,9 @@ std::vector<double> exact_image(const Case& c) {
   return img;
 }
 
-std::string test_backend() {
-  const char* b = std::getenv("PENUMBRA_TEST_BACKEND");
-  return b && *b ? b : "cpu";
+std::string env_or(const char* name, const char* fallback) {
+  const char* v = std::getenv(name);
+  return v && *v ? v : fallback;
 }
 double spp_scale() {
   const char* s = std::getenv("PENUMBRA_TEST_SPP_SCALE");
@@ -190,7 +192,10 @@ Verdict check_against_exact(const Case& c, const std::string& strategy, const st
   scaled.spp = std::max(2, int(std::lround(c.spp * spp_scale())));
   const Scene s = parse_scene(scene_json(scaled, strategy, mis, seed), "closed_form.json", ".");
   std::string note;
-  auto backend = make_backend(test_backend(), s, BackendOptions{}, &note);
+  BackendOptions options;
+  options.traversal = env_or("PENUMBRA_TEST_TRAVERSAL", "auto");
+  options.wavefront = env_or("PENUMBRA_TEST_MEGAKERNEL", "0") == std::string("0");
+  auto backend = make_backend(env_or("PENUMBRA_TEST_BACKEND", "cpu"), s, options, &note);
   Film film(s.render.width, s.render.height);
   backend->render(frame_spec(s), film, 0, uint32_t(s.render.spp));
   const std::vector<float> mean = film.mean(), var = film.variance_of_mean();
