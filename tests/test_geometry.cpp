@@ -102,7 +102,14 @@ TEST(Geometry, HitPointsAreWhereTheRayHits) {
     interior += i % 4 == 0;
     // The point is where the ray hit: within its error bound, or, where it was within twice that bound of
     // an edge, moved inside by at most three times the bound.
-    const bool near_edge = edge_distance(t, exact) < 2.0 * bound;
+    // What the hit keeps from every edge (triangle_hit: edge_keep of the interpolation's bound and its bound
+    // along the normal).
+    const Vec3 err_i = (vabs(t.p[0] * (1.f - b1 - b2)) + vabs(t.p[1] * b1) + vabs(t.p[2] * b2)) * fp_gamma(7);
+    const float eb = fp_gamma(kIntersectionUlps) * std::max({max_component(vabs(t.p[1] - t.p[0])),
+                                                             max_component(vabs(t.p[2] - t.p[0])),
+                                                             max_component(vabs(t.p[2] - t.p[1]))});
+    const double keep = 1.01 * edge_keep(length(err_i), error_along(err_i, n) + 3.f * eb);
+    const bool near_edge = edge_distance(t, exact) < keep;
     // Near a corner of angle theta the point keeps 2 |err| from both edges: up to 2 |err| / sin(theta / 2)
     // from the vertex.
     const double corner = 1.0 / std::sin(0.5 * smallest_angle(t));
@@ -113,7 +120,7 @@ TEST(Geometry, HitPointsAreWhereTheRayHits) {
     } else {
       ++moved;
       interior_moved += i % 4 == 0;
-      ASSERT_LE(dist, 3.0 * bound * corner) << i << " b " << b1 << " " << b2 << " bound " << bound;
+      ASSERT_LE(dist, (keep + bound) * corner) << i << " b " << b1 << " " << b2 << " bound " << bound;
     }
     // The computed point is inside the triangle, off every edge (closed meshes stay closed).
     ASSERT_GT(edge_distance(t, D3(p)), 0.0) << i << " near edge " << near_edge;
@@ -143,12 +150,21 @@ TEST(Geometry, RayOriginsLeaveTheSurfaceBarelyAndOnTheRightSide) {
     triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n);
     const float e = error_along(err, n);
     const Vec3 side = (i & 1) ? n : -n;
-    const Vec3 o = offset_ray_origin(p, side, e);
+    // Directions over the whole hemisphere, grazing ones included.
+    Vec3 w = normalize(Vec3(2.f * u(g) - 1.f, 2.f * u(g) - 1.f, 2.f * u(g) - 1.f));
+    if (dot(w, side) < 0.f) w = -w;
+    const float c = dot(w, side);
+    const Vec3 o = offset_ray_origin(p, side, e, w);
     const double h = plane_distance(t, D3(o)) * ((i & 1) ? 1.0 : -1.0);
     ASSERT_GT(h, 0.0) << i;  // on the side the ray leaves towards
     // and no further than twice the bound plus the rounding of the move (a unit in the last place of o).
     const double ulp = std::max({std::fabs(o.x), std::fabs(o.y), std::fabs(o.z)}) * 1.2e-7;
     ASSERT_LE(h, 2.0 * e + 2.0 * ulp) << i;
+    // On the ray's own line through p (but for the rounding), unless it grazes: then within e of it.
+    const D3 op = D3(o) - D3(p), wd(w);
+    const double off_line = len(op - wd * dot(op, wd));
+    ASSERT_LE(off_line, (c >= kMinOriginCos ? 0.0 : double(e)) + 4.0 * ulp) << i << " cos " << c;
+    ASSERT_LE(dot(op, wd), double(e) / kMinOriginCos + double(e) + 4.0 * ulp) << i;
   }
 }
 
@@ -161,7 +177,7 @@ TEST(Geometry, InstanceTransformsKeepTheBound) {
     Affine m;
     for (float& v : m.m) v = u(g) * 3.f;
     m.m[3] *= 100.f, m.m[7] *= 100.f, m.m[11] *= 100.f;
-    const float b1 = 0.25f + 0.2f * u(g), b2 = 0.25f + 0.2f * u(g);
+    const float b1 = 1.f / 3.f + 0.05f * u(g), b2 = 1.f / 3.f + 0.05f * u(g);  // far from edges: not moved
     Vec3 p, err, n;
     triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n);
     const double b0 = 1.0 - double(b1) - double(b2);
@@ -192,15 +208,16 @@ TEST(Geometry, SphereHitsAreOnTheSphereAndOriginsOutside) {
     sphere_hit(c, r, ray, t, &p, &err, &n);
     const double dist = len(D3(p) - D3(c));
     ASSERT_LE(std::fabs(dist - r), len(D3(err))) << i;  // on the sphere, to its bound
-    const Vec3 out = offset_ray_origin(p, n, error_along(err, n));
+    const Vec3 out = offset_ray_origin(p, n, error_along(err, n), n);
     ASSERT_GT(len(D3(out) - D3(c)), double(r)) << i;  // outside it
-    const Vec3 in = offset_ray_origin(p, -n, error_along(err, n));
+    const Vec3 in = offset_ray_origin(p, -n, error_along(err, n), -n);
     ASSERT_LT(len(D3(in) - D3(c)), double(r)) << i;  // or inside, as asked
   }
 }
 
 // What a shadow ray leaves out of the segment from a shading point p to a light point y: the first
-// offset (at most twice p's bound along the normal, plus rounding) and the last kShadowEpsilon of its length.
+// offset (p's bound along the normal over the cosine, at most 1 / kMinOriginCos of it, plus rounding) and the
+// last kShadowEpsilon of its length.
 // An occluder inside those ends is not seen; that is the whole of the shadow ray's bias.
 TEST(Geometry, ShadowRaysLeaveOutOnlyTheirEnds) {
   std::mt19937 g(13);
@@ -215,7 +232,7 @@ TEST(Geometry, ShadowRaysLeaveOutOnlyTheirEnds) {
     const double dist = len(D3(y) - D3(p));
     const double start = len(D3(r.ray.o) - D3(p));
     const double ulp = 1.2e-7 * std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
-    ASSERT_LE(start, 2.0 * p_error + 3.0 * ulp) << i;
+    ASSERT_LE(start, p_error / kMinOriginCos + 2.0 * p_error + 3.0 * ulp) << i;
     const Vec3 end = r.ray.o + r.ray.d * r.tmax;
     const double short_of_y = len(D3(y) - D3(end));
     ASSERT_LE(short_of_y, 1.001 * kShadowEpsilon * dist + 4.0 * ulp + 1e-6 * dist) << i;

@@ -455,7 +455,7 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
     if (rng.uniform() < p_end) return q;
     st.beta *= 1.f / (1.f - p_end);
   }
-  st.ray = Ray(offset_ray_origin(hit.p, bsdf.ng, hit.p_error), bs.wi);
+  st.ray = Ray(offset_ray_origin(hit.p, bsdf.ng, hit.p_error, bs.wi), bs.wi);
   st.depth = depth + 1;
   st.active = 1;
   return q;

@@ -146,7 +146,7 @@ struct ShadowRay {
 };
 
 PN_FN ShadowRay light_shadow_ray(Vec3 p, float p_error, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
-  const Vec3 o = offset_ray_origin(p, ng, p_error);
+  const Vec3 o = offset_ray_origin(p, ng, p_error, wi);
   if (infinite) return ShadowRay{Ray(o, wi), kInf};
   const Vec3 to_light = y - o;
   const float dist = length(to_light);
