@@ -1,0 +1,97 @@
+#!/usr/bin/env bash
+# GPU test: how the wavefront runs does not change what it computes (CTest gpu.wavefront.orders; what
+# scripts/wavefront_check.sh's step 4 was). backends/optix/WAVEFRONT.md says what each knob is.
+#
+#   tests/gpu/wavefront_orders.sh PENUMBRA OUT_DIR
+#
+#   - waves: a pool of 5,000 paths (PENUMBRA_WAVEFRONT_PATHS: many waves a launch, pixels cut anywhere, through the
+#     launch sums) renders the default pool's image (one wave a launch: straight into the film) byte for byte (the
+#     accumulation sums each pixel's samples in order), with either trace stage;
+#   - the cuda stage's shadow rays traced and applied in one kernel == in two (PENUMBRA_WAVEFRONT_FUSE=0, the same
+#     paths); its trace kernels at 10 resident blocks == at 8 (PENUMBRA_CUDA_OCC=0, byte for byte);
+#   - shadow queries in direction order == queue order (byte for byte traced forward; the same paths traced from
+#     the light); the bounces' rays in cell order == queue order; the cuda traversal's forms (auto) == its general
+#     form (byte for byte), on cornell-sphere and sponza;
+#   - restir with spatial reuse (its frame passes, stages of the wavefront) agrees with the CPU, with either stage.
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh" wavefront_orders "$@"
+spp=256
+wf() {  # wf NAME SCENE TRAVERSAL: a wavefront render, seed 7, solid-angle + MIS power
+  render "$1" "$2" 7 $spp --backend optix --wavefront --traversal "$3" --strategy solid-angle --mis power
+}
+
+for tr in optix cuda; do
+  n=cornell-sphere_waves_$tr
+  if wf "${n}_big" cornell-sphere "$tr" && PENUMBRA_WAVEFRONT_PATHS=5000 wf "${n}_small" cornell-sphere "$tr"; then
+    same_bytes "${n}_big" "${n}_small" "pool of 5000 paths == default pool, byte for byte ($tr)"
+  else
+    record "waves: renders ($tr)" 1
+  fi
+done
+n=cornell-sphere_waves_cuda
+if [[ -f $out/${n}_big.exr ]]; then
+  if PENUMBRA_WAVEFRONT_FUSE=0 wf "${n}_unfused" cornell-sphere cuda; then
+    same_paths "${n}_big" "${n}_unfused" "shadow rays traced and applied in one kernel == in two"
+  else
+    record "shadow rays in two kernels: render" 1
+  fi
+  if PENUMBRA_CUDA_OCC=0 wf "${n}_occ0" cornell-sphere cuda; then
+    same_bytes "${n}_big" "${n}_occ0" "trace kernels at 10 resident blocks == at 8 (64 registers), byte for byte"
+  else
+    record "trace kernels at 8 resident blocks: render" 1
+  fi
+fi
+# The shadow queue's order (wavefront.h's ShadowOrder; auto picks it by the scene's rays' length).
+for scene in cornell-sphere sponza; do
+  listed "$scene" || continue
+  n=${scene}_shadow_order
+  if PENUMBRA_SHADOW_ORDER=queue wf "${n}_queue" "$scene" cuda &&
+     PENUMBRA_SHADOW_ORDER=direction PENUMBRA_SHADOW_REVERSE=0 wf "${n}_forward" "$scene" cuda &&
+     PENUMBRA_SHADOW_ORDER=direction wf "${n}_reversed" "$scene" cuda; then
+    same_bytes "${n}_queue" "${n}_forward" "$scene: shadow rays in direction order == queue order, byte for byte"
+    same_paths "${n}_queue" "${n}_reversed" \
+      "$scene: shadow rays in direction order, traced from the light == queue order"
+  else
+    record "$scene: shadow order renders" 1
+  fi
+done
+# The bounces' closest-hit rays by direction and origin cells (wavefront.h's RayOrder).
+for scene in cornell-sphere sponza; do
+  listed "$scene" || continue
+  n=${scene}_ray_order
+  if PENUMBRA_RAY_ORDER=queue wf "${n}_queue" "$scene" cuda && PENUMBRA_RAY_ORDER=cells wf "${n}_cells" "$scene" cuda
+  then
+    same_bytes "${n}_queue" "${n}_cells" "$scene: the bounces' rays in cell order == queue order, byte for byte"
+  else
+    record "$scene: ray order renders" 1
+  fi
+done
+# The cuda traversal's forms (backends/cuda/trace_forms.h): the same hits and answers as the general form.
+for scene in cornell-sphere sponza; do
+  listed "$scene" || continue
+  n=${scene}_forms
+  if wf "${n}_auto" "$scene" cuda &&
+     PENUMBRA_CUDA_LOOP=while PENUMBRA_CUDA_BOX=slab PENUMBRA_CUDA_FLAT=0 wf "${n}_general" "$scene" cuda; then
+    same_bytes "${n}_auto" "${n}_general" \
+      "$scene: the cuda traversal's forms (auto) == its general form, byte for byte"
+  else
+    record "$scene: traversal form renders" 1
+  fi
+done
+if listed many-spheres; then
+  restir=(--strategy solid-angle --mis power --light-selection restir --set defaults.lights=200)
+  if render restir_passes_cpu many-spheres 0 $spp --backend cpu "${restir[@]}"; then
+    for tr in cuda optix; do
+      if render "restir_passes_wf_$tr" many-spheres 1 $spp --backend optix --wavefront --traversal "$tr" \
+           "${restir[@]}"; then
+        compare_pair restir_passes_cpu "restir_passes_wf_$tr" \
+          "restir with spatial reuse in the wavefront (its frame passes as stages): cpu == $tr"
+      else
+        record "restir with spatial reuse, wavefront $tr: render" 1
+      fi
+    done
+  else
+    record "restir with spatial reuse: cpu render" 1
+  fi
+fi
+
+finish_checks "$title"
