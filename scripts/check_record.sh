@@ -1,13 +1,10 @@
-# PASS/FAIL bookkeeping of the GPU-machine check scripts (gpu_check.sh,
-# python_gpu_check.sh, multi_gpu_check.sh), sourced by them:
+# PASS/FAIL bookkeeping of the GPU-machine checks (the GPU tests, tests/gpu/lib.sh;
+# python_gpu_check.sh, multi_gpu_check.sh) and their build (gpu_check.sh), sourced by them:
 #   record NAME STATUS     prints NAME with PASS (STATUS 0) or FAIL, and remembers it
 #   finish_checks TITLE    prints every verdict and "TITLE: PASS (N checks)" or "TITLE: FAIL";
 #                          returns 0 only if every check passed and there was at least one
 #   gpu_build DIR TITLE [TARGET]  configures (Release, CMAKE_CUDA_ARCHITECTURES=90, OptiX_ROOT from the
 #                          environment or .optix/) and builds DIR; on failure prints "TITLE: FAIL" and exits
-#   check_build TITLE BUILD_DIR OUT  sets build (BUILD_DIR, or build-gpu-check built by gpu_build when
-#                          empty), penumbra and out (OUT, default BUILD_DIR/TITLE; created); exits with
-#                          "TITLE: FAIL" when there is no executable
 declare -a names=() verdicts=()
 failed=0
 record() {
@@ -33,21 +30,4 @@ gpu_build() {
   cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CUDA_ARCHITECTURES=90 \
     -DOptiX_ROOT="$optix_root" || { echo "$title: FAIL: configure"; exit 1; }
   cmake --build "$dir" ${3:+--target "$3"} || { echo "$title: FAIL: build"; exit 1; }
-}
-check_build() {
-  local title=$1 root
-  root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-  build=$2
-  if [[ -z $build ]]; then
-    build=$root/build-gpu-check
-    gpu_build "$build" "$title"
-  fi
-  build=$(cd "$build" && pwd)
-  penumbra=$build/penumbra
-  out=${3:-$build/$title}
-  mkdir -p "$out"
-  if [[ ! -x $penumbra ]]; then
-    echo "$title: FAIL: no executable $penumbra"
-    exit 1
-  fi
 }
