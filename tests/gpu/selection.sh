@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# GPU test: light selection (issue 14) on one scene, CPU against GPU (CTest gpu.selection.SCENE; what
-# scripts/gpu_check.sh's step 3 was).
+# GPU test: light selection (issue 14) on one scene, CPU against GPU (CTest gpu.selection.SCENE, glossy in two parts:
+# gpu.selection.glossy.1 and .2; what scripts/gpu_check.sh's step 3 was).
 #
-#   tests/gpu/selection.sh PENUMBRA OUT_DIR SCENE [METHOD...]
+#   tests/gpu/selection.sh PENUMBRA OUT_DIR SCENE [--part K/N] [METHOD...]
 #
-# Every METHOD (method[:extra args, comma-separated]; default all of these): uniform, bvh, restir unbiased with
+# Every METHOD (method[:extra args, comma-separated]; default all of these; --part K/N: the K-th, (K+N)-th, ...
+# of them, so that N tests share a scene's methods): uniform, bvh, restir unbiased with
 # spatial reuse, restir without reuse, with BVH candidates, with pairwise MIS (with and without visibility reuse),
 # the BIASED restir (CPU and GPU must agree on its expectation too), restir with temporal reuse, and restir without
 # reuse on the megakernel. Solid-angle with MIS power, at 128x72 and 1024 spp; the CPU with seed 0 against the GPU
@@ -26,7 +27,7 @@ name=${3:-none}
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh" "selection_$name" "$@"
 
 scene=${args[0]:-}
-if [[ -z $scene ]]; then echo "usage: $0 PENUMBRA OUT_DIR SCENE [METHOD...]"; exit 2; fi
+if [[ -z $scene ]]; then echo "usage: $0 PENUMBRA OUT_DIR SCENE [--part K/N] [METHOD...]"; exit 2; fi
 if ! listed "$scene"; then
   echo "$title: skipped: $scene is not a built-in scene of this build (penumbra scenes does not list it)"
   exit 77
@@ -53,12 +54,20 @@ robust_spp() {  # robust_spp SPEC -> spp
   fi
 }
 
-selections=${args[*]:1}
+part=1/1
+methods=("${args[@]:1}")
+if [[ ${methods[0]:-} == --part ]]; then
+  part=${methods[1]:-}
+  methods=("${methods[@]:2}")
+  [[ $part =~ ^[1-9][0-9]*/[1-9][0-9]*$ ]] || { echo "$title: --part K/N, not '$part'"; exit 2; }
+fi
+selections=${methods[*]}
 [[ -n $selections ]] || selections="uniform bvh restir restir:--restir-spatial=0
   restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise
   restir:--restir-pairwise,--restir-unshadowed restir:--restir-unshadowed,--restir-source=bvh,--restir-candidates=8
   restir:--restir-biased restir:--restir-temporal restir:--megakernel,--restir-spatial=0"
-echo "== light selection on $scene: CPU vs GPU at ${width}x${height}"
+selections=$(tr -s ' \n' '\n\n' <<<"$selections" | awk -v k="${part%/*}" -v n="${part#*/}" 'NF && (++i - k) % n == 0')
+echo "== light selection on $scene: CPU vs GPU at ${width}x${height} (part $part: $(xargs <<<"$selections"))"
 # restir's reuse has no megakernel path (core/restir.h): --megakernel must say so in one line and exit non-zero,
 # never hang (its OptiX passes, removed, hung with the generalized balance heuristic).
 if [[ $scene == many-spheres && $selections == *--megakernel* ]]; then
