@@ -28,6 +28,9 @@ mkdir -p "$out" || exit 1
 out=$(cd "$out" && pwd)
 width=128
 height=72
+# glossy's sky from the tree that holds these tests: an executable built elsewhere looks for it where its own
+# source tree was (scene/builtin_scenes.cpp, source_data_file).
+export PENUMBRA_DATA=${PENUMBRA_DATA:-$gpu_tests_root/data}
 
 # The GPU backend, or exit 77 (skipped) where there is none: a build without OptiX, or a machine without an NVIDIA
 # GPU or driver. The executable says which in one line (render/backend.cpp, backends/optix/context.cpp). Any other
