@@ -9,8 +9,9 @@
 # Without BUILD_DIR (or with "") it configures build-gpu-check (Release, CMAKE_CUDA_ARCHITECTURES=90, OptiX_ROOT
 # from the environment or .optix/) and builds the executable there (what the GPU tests need; `cmake --build
 # build-gpu-check` for the unit tests too). Then `ctest -L gpu --output-on-failure` there, or ctest with the
-# arguments given instead (e.g. `-R 'gpu\.(compare|selection)\.glossy'`, `-L wavefront`, `-LE gpu` for the unit
-# tests), with PENUMBRA_GPU_TESTS=require: a test that finds no GPU backend fails instead of being skipped.
+# arguments given instead (e.g. `-R 'gpu\.(compare|selection)\.glossy'`, `-L wavefront`; `-LE gpu` for the unit
+# tests, whose GPU parts, such as the viewer's device image, run where a GPU is), with PENUMBRA_GPU_TESTS=require:
+# a test that finds no GPU backend fails instead of being skipped.
 # CTest runs them one at a time (each uses the GPU and every core), each under 8 minutes on the H200; every
 # test's checks and verdicts are in BUILD_DIR/Testing/Temporary/LastTest.log (add -V to see them as they run),
 # its images in BUILD_DIR/tests/gpu/<test>/. Exits with ctest's status.

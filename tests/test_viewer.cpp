@@ -327,7 +327,8 @@ TEST(Display, InteropOnlyWithOptixAndFallsBackInOneLine) {
 #if PN_TEST_DEVICE_IMAGE
 // The interop path's device image against the host path on the same GPU: the
 // same sums (frames of 1+1+2 spp) and the same display bytes in a column range.
-// Runs where a GPU is (scripts/gpu_check.sh); skipped elsewhere.
+// Runs where a GPU is (the unit tests on a GPU machine: scripts/gpu_check.sh
+// BUILD_DIR -LE gpu); skipped elsewhere.
 TEST(Display, DeviceImageIsTheHostImageOnTheGpu) {
   std::string why;
   if (!optix_available(&why)) GTEST_SKIP() << why;
