@@ -149,13 +149,13 @@ def main():
     sum_a, sum_b = math.fsum(sums_a.values()), math.fsum(sums_b.values())
     n, count = 3 * w * h, len(sums_a)
     mean_a, mean_b = sum_a / n, sum_b / n
-    r = sum_a / sum_b - 1 if sum_b else 0.0
+    r = sum_a / sum_b - 1 if sum_b else (0.0 if sum_a == 0 else math.inf)
     # The residuals of A = (1 + r) B over tiles: noise alone under the same estimator, and noise alone under a
     # bias that scales the image too (a light's power, a pdf's constant), which therefore does not inflate them.
     ss = math.fsum((sums_a[k] - (1 + r) * sums_b[k]) ** 2 for k in sums_a) * count / max(count - 1, 1)
-    se = math.sqrt(ss) / abs(sum_b) if sum_b else math.inf
-    z = r / se if se > 0 else 0.0
-    rel = abs(r) if sum_b else abs(mean_a)
+    se = math.sqrt(ss) / abs(sum_b) if sum_b and not math.isnan(ss) else math.inf
+    z = r / se if se > 0 and math.isfinite(r) else (0.0 if r == 0 else math.copysign(math.inf, r))
+    rel = abs(r)
     detects = (args.z + 1.645) * se
     ok_z = abs(z) < args.z
     ok_power = args.bias <= 0 or detects <= args.bias
