@@ -81,9 +81,13 @@ render() {
   return $st
 }
 
-# compare A B -> `penumbra compare`'s line (also in OUT/B_vs_A.txt), its status.
+# compare A B -> `penumbra compare`'s report (also in OUT/B_vs_A.txt; its first line, the verdict, first), its
+# status. The statistical test decides: --max-rel-diff 1 leaves the bound on the means out, since a pair of
+# independent renders of a noisy technique (sponza's bsdf) may differ by more than 1% at its noise, which the
+# statistical test weighs and a fixed bound does not (same_paths asks for a difference of 0.00% itself).
 compare() {
-  "$penumbra" compare "$out/$1.exr" "$out/$1_var.exr" "$out/$2.exr" "$out/$2_var.exr" | tee "$out/$2_vs_$1.txt"
+  "$penumbra" compare --max-rel-diff 1 "$out/$1.exr" "$out/$1_var.exr" "$out/$2.exr" "$out/$2_var.exr" \
+    | tee "$out/$2_vs_$1.txt"
   return "${PIPESTATUS[0]}"
 }
 compare_pair() {  # compare_pair A B LABEL: `penumbra compare` PASS
@@ -94,6 +98,7 @@ same_paths() {  # same_paths A B LABEL: PASS with a relative difference of 0.00 
   local line st
   line=$(compare "$1" "$2")
   st=$?
+  line=$(head -n 1 <<<"$line")
   [[ $st == 0 && $line == *"rel. diff 0.00"* ]]
   record "$3" $?
 }
@@ -121,6 +126,7 @@ robust_pair() {
   done
   line=$(compare "$a" "$b")
   echo "$line"
+  line=$(head -n 1 <<<"$line")
   outliers=$(sed -n 's|.*, \([0-9]*\)/\([0-9]*\) channels beyond.*|\1|p' <<<"$line")
   channels=$(sed -n 's|.*, \([0-9]*\)/\([0-9]*\) channels beyond.*|\2|p' <<<"$line")
   zvm=$(sed -n 's|.*, \([0-9]*\) zero-variance mismatches.*|\1|p' <<<"$line")
