@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include "render/compare.h"
@@ -67,6 +68,51 @@ TEST(Compare, OutliersAndZeroVarianceMismatchesFailTheStatisticalTestAlone) {
   EXPECT_EQ(r.zero_var_mismatches, 1u);
   EXPECT_FALSE(r.statistical_pass);
   EXPECT_TRUE(r.bound_pass);
+}
+
+// A pixel's channels are one sample's values: where they move together (a white light on grey) the image mean's
+// standard error is sqrt(3) times what independent channels would give, and the image z must not be that much too
+// large. Simulated: pairs of images whose pixels are averages of 16 samples, grey (R = G = B) or with independent
+// channels; the image z over 4,000 pairs has variance near 1 for grey, at most 1 for independent channels.
+TEST(Compare, ImageZKnowsAPixelsChannelsMoveTogether) {
+  std::mt19937 g(17);
+  std::normal_distribution<double> u(0.0, 1.0);
+  const int pixels = 64, samples = 16, trials = 4000;
+  for (bool grey : {true, false}) {
+    double sum_z2 = 0;
+    for (int t = 0; t < trials; ++t) {
+      std::vector<float> img[2], var[2];
+      for (int k = 0; k < 2; ++k) {
+        img[k].resize(3 * pixels);
+        var[k].resize(3 * pixels);
+        for (int p = 0; p < pixels; ++p) {
+          double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+          for (int i = 0; i < samples; ++i) {
+            const double x = u(g);
+            for (int c = 0; c < 3; ++c) {
+              const double v = 1.0 + (grey ? x : u(g));
+              s[c] += v;
+              s2[c] += v * v;
+            }
+          }
+          for (int c = 0; c < 3; ++c) {
+            const double m = s[c] / samples;
+            img[k][3 * p + c] = float(m);
+            var[k][3 * p + c] = float((s2[c] / samples - m * m) * samples / (samples - 1) / samples);
+          }
+        }
+      }
+      const CompareResult r = compare_images(img[0], var[0], img[1], var[1]);
+      sum_z2 += r.image_z * r.image_z;
+    }
+    const double var_z = sum_z2 / trials;
+    if (grey) {
+      EXPECT_GT(var_z, 0.85) << "grey";
+      EXPECT_LT(var_z, 1.15) << "grey";
+    } else {
+      EXPECT_LT(var_z, 1.15) << "independent channels";
+    }
+  }
 }
 
 TEST(Compare, TheSameImagePassesBoth) {

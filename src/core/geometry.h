@@ -69,8 +69,13 @@ PN_FN float error_along(Vec3 p_error, Vec3 n) {
 // origin along n instead; then a BSDF-sampled ray sees a light from a point
 // `error` above p, and MIS images of a plane under a light were 0.004-0.026% too
 // bright with large triangles, H200, 0.0002% standard errors.) Grazing rays,
-// cos < kMinOriginCos, move along w by error / kMinOriginCos and along n by the
-// rest: their line is off p by less than `error`. n must be on w's side.
+// cos < kMinOriginCos (14.5 degrees), move along w by error / kMinOriginCos and
+// along n by the rest: their line is off p by less than `error`, and a light seen
+// mostly at such angles is seen from a little above p (a quad 0.1 above a
+// 120 x 120 floor: MIS images 0.013-0.017% too bright on the H200). A cap of
+// 1 / 64 took that to 0.003% but needs edge_keep's band 16x wider, and the moved
+// hit points then showed along the floor's diagonal (mean z^2 4.8): the cap
+// wants each hit's distance to its edges instead. n must be on w's side.
 constexpr float kMinOriginCos = 0.25f;
 PN_FN Vec3 offset_ray_origin(Vec3 p, Vec3 n, float error, Vec3 w) {
   const float c = dot(n, w);
@@ -240,10 +245,11 @@ constexpr int kIntersectionUlps = 8;
 // would see light at its seams); and the next ray's origin moves along the ray
 // too (offset_ray_origin). So a hit closer to an edge than edge_keep (twice the
 // interpolation's error bound, plus four times its bound along the normal) is
-// moved into the triangle, perpendicular to the edge, to that distance: a move
-// of a few dozen units in the last place of the triangle's size at most, made
-// only that close to an edge (tests/data/closed_box*.json;
-// Geometry.HitPointsAreWhereTheRayHits bounds the move).
+// moved into the triangle, perpendicular to the edge, to that distance: a move of
+// a few dozen units in the last place of the coordinates at most, made only that
+// close to an edge (tests/data/closed_box*.json; Geometry.HitPointsAreWhereTheRay-
+// Hits bounds the move). Its bias is second order: the band's share of the area
+// times the move.
 PN_FN void triangle_hit(Vec3 p0, Vec3 p1, Vec3 p2, float b1, float b2, Vec3* p, Vec3* p_error, Vec3* n) {
   const Vec3 c = cross(p1 - p0, p2 - p0);
   const float inv_area2 = 1.f / length(c);

@@ -6,7 +6,7 @@
 #
 #   tests/gpu/closed_form.sh PENUMBRA OUT_DIR CLOSED_FORM_TESTS MODE SPP_SCALE
 #
-# MODE: cuda or optix (the wavefront's trace stage) or megakernel.
+# MODE: cuda or optix (the wavefront's trace stage) or megakernel (not a CTest test: too slow, see CMakeLists.txt).
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh" "closed_form" "$@"
 gpu_probe
 binary=${args[0]:?closed-form test executable} mode=${args[1]:?mode} scale=${args[2]:?spp scale}
