@@ -414,32 +414,19 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   // A render with max depth 0 holds only emission seen by camera rays; any
   // pixel with some of it (also partially covered ones) is left out of the
   // "no light" metrics.
-  std::vector<uint8_t> mask(size_t(W) * H, 1);
+  std::vector<uint8_t> mask;
   {
     Film film(W, H);
     backend->render(mask_frame, film, 0, kLightMaskSpp, a.progress);
     count_nonfinite(nonfinite_mask);
-    auto m = film.mean();
-    for (size_t p = 0; p < mask.size(); ++p)
-      if (m[3 * p] + m[3 * p + 1] + m[3 * p + 2] > 0.f) mask[p] = 0;
+    mask = nolight_mask(film.mean());
   }
   size_t light_pixels = std::count(mask.begin(), mask.end(), 0);
 
   // The reference is itself noisy: its expected squared error, the mean of its
   // per-pixel variance, is added to every measured MSE. Reported so that the
   // reader can tell where measured errors reach that floor.
-  double floor_all = 0, floor_nolight = 0;
-  size_t n_nolight = 0;
-  for (size_t p = 0; p < mask.size(); ++p) {
-    double v = (double(ref_var[3 * p]) + ref_var[3 * p + 1] + ref_var[3 * p + 2]) / 3;
-    floor_all += v;
-    if (mask[p]) {
-      floor_nolight += v;
-      ++n_nolight;
-    }
-  }
-  floor_all = std::sqrt(floor_all / double(mask.size()));
-  floor_nolight = n_nolight ? std::sqrt(floor_nolight / double(n_nolight)) : 0.0;
+  const double floor_all = noise_floor_rmse(ref_var), floor_nolight = noise_floor_rmse(ref_var, &mask);
 
   // --- Convergence runs ------------------------------------------------------------
   ConvergeResult result;
@@ -565,7 +552,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
       LineFit fit = fit_line(lx, y);
       // Time to reach the threshold, from the fitted line: N = exp((ln t - a) / b). Extrapolated where N lies
       // beyond the spp the line was fitted to: read off the line, not seen in any render.
-      double n = fit.b < 0 ? std::exp((std::log(a.threshold) - fit.a) / fit.b) : INFINITY;
+      double n = spp_to_threshold(fit, a.threshold);
       const double lo = std::exp(lx.front()), hi = std::exp(lx.back());
       const bool extrapolated = !(n >= lo * (1 - 1e-9) && n <= hi * (1 + 1e-9));
       js[name] = {{"slope", fit.b}, {"intercept", fit.a}, {"spp_to_threshold", n},
@@ -578,12 +565,12 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     const json& last = points.back();
     double mse = std::pow(last["rmse"].get<double>(), 2), mse_n = std::pow(last["rmse_nolight"].get<double>(), 2);
     double secs = last["time_ms"].get<double>() * 1e-3;
-    js["efficiency"] = mse > 0 && secs > 0 ? 1.0 / (mse * secs) : 0.0;
-    js["efficiency_nolight"] = mse_n > 0 && secs > 0 ? 1.0 / (mse_n * secs) : 0.0;
+    js["efficiency"] = efficiency(mse, secs);
+    js["efficiency_nolight"] = efficiency(mse_n, secs);
     if (!frame.empty()) {
       // A frame's efficiency: 1 / (its MSE x the time of one sample), per second of frame time.
       const double fm = std::pow(frame["rmse_nolight"].get<double>(), 2), spp_secs = ms_per_spp * 1e-3;
-      frame["efficiency_nolight"] = fm > 0 && spp_secs > 0 ? 1.0 / (fm * spp_secs) : 0.0;
+      frame["efficiency_nolight"] = efficiency(fm, spp_secs);
       js["frame"] = frame;
     }
     summary["strategies"][name] = js;

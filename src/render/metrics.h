@@ -42,6 +42,37 @@ inline ErrorMetrics error_metrics(const std::vector<float>& test, const std::vec
   return m;
 }
 
+// Pixels that see no light, from the mean of a render of camera rays alone (max
+// depth 0: only emission seen directly): 1 where all three channels are zero, 0
+// where a light covers any of the pixel.
+inline std::vector<uint8_t> nolight_mask(const std::vector<float>& direct) {
+  std::vector<uint8_t> mask(direct.size() / 3, 1);
+  for (size_t p = 0; p < mask.size(); ++p)
+    if (direct[3 * p] + direct[3 * p + 1] + direct[3 * p + 2] > 0.f) mask[p] = 0;
+  return mask;
+}
+
+// The reference's own noise as an RMSE: sqrt of the mean, over pixels (those the
+// mask keeps) and channels, of its variance of the mean (Film::variance_of_mean).
+// Its square is what the reference adds to every measured MSE in expectation; 0
+// where no pixel counts.
+inline double noise_floor_rmse(const std::vector<float>& var_of_mean, const std::vector<uint8_t>* mask = nullptr) {
+  double v = 0;
+  size_t n = 0;
+  for (size_t p = 0; p < var_of_mean.size() / 3; ++p) {
+    if (mask && !(*mask)[p]) continue;
+    v += double(var_of_mean[3 * p]) + var_of_mean[3 * p + 1] + var_of_mean[3 * p + 2];
+    ++n;
+  }
+  return n ? std::sqrt(v / (3.0 * n)) : 0.0;
+}
+
+// Efficiency 1 / (MSE x seconds): the larger, the less time to a given error; 0
+// where the MSE or the time is not positive.
+inline double efficiency(double mse, double seconds) {
+  return mse > 0 && seconds > 0 ? 1.0 / (mse * seconds) : 0.0;
+}
+
 // Least-squares line y = a + b x.
 struct LineFit {
   double a = 0, b = 0;
@@ -61,6 +92,12 @@ inline LineFit fit_line(const std::vector<double>& x, const std::vector<double>&
     f.a = (sy - f.b * sx) / n;
   }
   return f;
+}
+
+// The spp at which a fit of ln RMSE = a + b ln spp reaches `threshold`:
+// exp((ln threshold - a) / b); infinite where the line does not fall (b >= 0).
+inline double spp_to_threshold(const LineFit& fit, double threshold) {
+  return fit.b < 0 ? std::exp((std::log(threshold) - fit.a) / fit.b) : INFINITY;
 }
 
 }  // namespace pn
