@@ -329,9 +329,12 @@ def light_distance(center):
 
 
 def speedup(summary, key="fit_rmse", to="ms_to_threshold"):
-    """Time-to-quality ratio area / solid-angle (> 1: solid-angle is faster); to="spp_to_threshold": samples."""
-    a = summary["strategies"]["area"].get(key, {}).get(to, math.inf)
-    s = summary["strategies"]["solid-angle"].get(key, {}).get(to, math.inf)
+    """Time-to-quality ratio area / solid-angle (> 1: solid-angle is faster); to="spp_to_threshold": samples.
+    A time that never comes is infinite in converge's summary, null in its summary.json (JSON has no infinity)."""
+    def needed(st):
+        t = summary["strategies"][st].get(key, {}).get(to)
+        return math.inf if t is None else t
+    a, s = needed("area"), needed("solid-angle")
     return a / s if s > 0 and math.isfinite(a) and math.isfinite(s) else float("nan")
 
 
