@@ -1049,6 +1049,12 @@ def many_bench(args, cfg, out_dir):
     return out
 
 
+def mse_nolight(point):
+    """A point's MSE without the lamp pixels: the mean over seeds of RMSE^2 (summaries before converge wrote it:
+    the square of the mean RMSE, smaller by the seeds' variance of RMSE)."""
+    return point.get("mse_nolight", point["rmse_nolight"] ** 2)
+
+
 # Many-light scenes show their lamps: pixels that see a light directly carry the
 # lamps' own (pixel-coverage) noise, alike for every method and far above the
 # rest. Errors are measured without them (converge's *_nolight metrics).
@@ -1160,10 +1166,10 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
             w("")
         floor = runs["power"]["reference"].get("rmse_floor_nolight")
         if floor:
-            best = min(runs[sel]["strategies"][st_sa]["points"][-1]["rmse_nolight"] for sel in sels
+            best = min(mse_nolight(runs[sel]["strategies"][st_sa]["points"][-1]) for sel in sels
                        if sel != "restir-biased")
             w(f"The ground truth's own noise (RMSE {floor:.4g} without lamp pixels, from its variance) is "
-              f"{100 * (floor / best) ** 2:.1f}% of the smallest unbiased MSE at the largest spp, and adds to every "
+              f"{100 * floor ** 2 / best:.1f}% of the smallest unbiased MSE at the largest spp, and adds to every "
               "method's error alike.\n")
         w("RMSE at the largest spp, slope of the log-log fit, and the image mean against the reference's (the "
           "bias, within the noise of both; solid-angle; pixels that see a lamp left out):\n")
@@ -1334,7 +1340,7 @@ def many_check(head, sweep, out_dir):
             if not -0.85 <= slope <= -0.15:
                 failures.append(f"many-spheres {sel} {st}: slope {slope:.3f} (median of the seeds) outside "
                                 "[-0.85, -0.15]")
-    mse = {sel: runs[sel]["strategies"][many_technique("solid-angle")]["points"][-1]["rmse_nolight"] ** 2
+    mse = {sel: mse_nolight(runs[sel]["strategies"][many_technique("solid-angle")]["points"][-1])
            for sel in ("power", "bvh") if sel in runs}
     if len(mse) == 2 and not mse["bvh"] < 0.6 * mse["power"]:
         failures.append(f"many-spheres: bvh's MSE at equal spp is not below 0.6x power's ({mse['bvh']:.4g} vs "

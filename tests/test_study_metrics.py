@@ -137,6 +137,13 @@ def test_many_efficiency_is_relative_to_power():
     assert study.many_efficiency(runs, "power", "solid-angle", base="bvh") == pytest.approx(1.5 / 4)
 
 
+def test_mse_nolight_is_the_mean_square_over_seeds():
+    # Seeds of RMSE 0.1 and 0.3: MSE (0.01 + 0.09) / 2 = 0.05, not the square of the mean RMSE, 0.04.
+    assert study.mse_nolight(dict(rmse_nolight=0.2, mse_nolight=0.05)) == 0.05
+    # Summaries from before converge wrote mse_nolight: the square of the mean RMSE, all there is.
+    assert study.mse_nolight(dict(rmse_nolight=0.2)) == pytest.approx(0.04)
+
+
 def test_many_relmse_efficiency():
     # Largest spp 8: relMSE_nolight (c / 20)^2 / 8 at 8 ms_per_spp milliseconds.
     e = study.many_relmse_efficiency(many(0.4, 2.0), "solid-angle")

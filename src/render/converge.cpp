@@ -479,7 +479,8 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   summary["frame_spp"] = a.frame_spp;
   summary["metrics"] =
       "RMSE: sqrt(mean over pixels and RGB channels of (test - ref)^2), linear radiance, unclamped (thesis eq. 4.1); "
-      "relMSE: mean of (test - ref)^2 / (ref^2 + 0.01) (pbrt); *_nolight: without pixels that see a light directly";
+      "relMSE: mean of (test - ref)^2 / (ref^2 + 0.01) (pbrt); *_nolight: without pixels that see a light directly; "
+      "a point's rmse, mse and relmse: means over seeds (mse of RMSE^2); efficiency: 1 / (mse x seconds)";
   if (!out.empty()) write_crop(out + "/crop_reference.npy", ref, W, crop);
 
   uint64_t per_strategy = 0;
@@ -497,7 +498,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     double ms_per_spp = 0;
     json frame = json::object();  // --frame-spp: the last sample alone
     for (int spp : spps) {
-      double rm = 0, rmn = 0, rel = 0, reln = 0, ms = 0, mean = 0, mean_nolight = 0;
+      double rm = 0, rmn = 0, mse = 0, msen = 0, rel = 0, reln = 0, ms = 0, mean = 0, mean_nolight = 0;
       for (int seed = 1; seed <= a.seeds; ++seed) {
         f.seed = uint32_t(seed);
         Film film(W, H);
@@ -511,6 +512,8 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         mean_nolight += image_mean(img, true) / a.seeds;
         rm += all.rmse / a.seeds;
         rmn += nolight.rmse / a.seeds;
+        mse += all.mse / a.seeds;
+        msen += nolight.mse / a.seeds;
         rel += all.relmse / a.seeds;
         reln += nolight.relmse / a.seeds;
         ms += t / a.seeds;
@@ -527,6 +530,8 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
           auto add = [&](const char* k, double v) { frame[k] = frame.value(k, 0.0) + v / a.seeds; };
           add("rmse", fa.rmse);
           add("rmse_nolight", fn.rmse);
+          add("mse", fa.mse);
+          add("mse_nolight", fn.mse);
           add("relmse", fa.relmse);
           add("relmse_nolight", fn.relmse);
           frame["spp"] = spp;
@@ -536,7 +541,8 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
           write_image(out + "/image_" + name + "_" + std::to_string(spp) + "spp.png", W, H, img);
         }
       }
-      points.push_back({{"spp", spp}, {"rmse", rm}, {"rmse_nolight", rmn}, {"relmse", rel}, {"relmse_nolight", reln},
+      points.push_back({{"spp", spp}, {"rmse", rm}, {"rmse_nolight", rmn}, {"mse", mse}, {"mse_nolight", msen},
+                        {"relmse", rel}, {"relmse_nolight", reln},
                         {"time_ms", ms}, {"mean", mean}, {"mean_nolight", mean_nolight}});
       if (spp >= a.fit_min_spp) {
         lx.push_back(std::log(double(spp)));
@@ -561,15 +567,14 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     };
     fit_json(ly, "fit_rmse");
     fit_json(lyn, "fit_rmse_nolight");
-    // Efficiency 1 / (MSE x time) at the largest spp.
+    // Efficiency 1 / (MSE x time) at the largest spp, the MSE over seeds (metrics.h).
     const json& last = points.back();
-    double mse = std::pow(last["rmse"].get<double>(), 2), mse_n = std::pow(last["rmse_nolight"].get<double>(), 2);
     double secs = last["time_ms"].get<double>() * 1e-3;
-    js["efficiency"] = efficiency(mse, secs);
-    js["efficiency_nolight"] = efficiency(mse_n, secs);
+    js["efficiency"] = efficiency(last["mse"].get<double>(), secs);
+    js["efficiency_nolight"] = efficiency(last["mse_nolight"].get<double>(), secs);
     if (!frame.empty()) {
       // A frame's efficiency: 1 / (its MSE x the time of one sample), per second of frame time.
-      const double fm = std::pow(frame["rmse_nolight"].get<double>(), 2), spp_secs = ms_per_spp * 1e-3;
+      const double fm = frame["mse_nolight"].get<double>(), spp_secs = ms_per_spp * 1e-3;
       frame["efficiency_nolight"] = efficiency(fm, spp_secs);
       js["frame"] = frame;
     }
