@@ -19,7 +19,9 @@ if(PENUMBRA_SANITIZE)
   # from the targets. C++ only: no CUDA in this build.
   set(_pn_flags -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -g)
   if(PENUMBRA_FUZZ)
-    list(APPEND _pn_flags -fsanitize=fuzzer-no-link)
+    # Less the code whose coverage follows the machine, not the input (tests/fuzz/coverage_ignore.txt).
+    list(APPEND _pn_flags -fsanitize=fuzzer-no-link
+         -fsanitize-coverage-ignorelist=${PROJECT_SOURCE_DIR}/tests/fuzz/coverage_ignore.txt)
   endif()
   foreach(flag ${_pn_flags})
     add_compile_options("$<$<COMPILE_LANGUAGE:CXX>:${flag}>")
