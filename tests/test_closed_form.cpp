@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "double_vec.h"
 #include "render/backend.h"
 #include "scene/scene.h"
 
@@ -32,16 +33,11 @@ namespace {
 
 using json = nlohmann::json;
 
-struct D3 {
-  double x = 0, y = 0, z = 0;
-};
-D3 operator-(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-D3 operator+(D3 a, D3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-D3 operator*(D3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-double dot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-D3 cross(D3 a, D3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double len(D3 a) { return std::sqrt(dot(a, a)); }
-D3 unit(D3 a) { return a * (1.0 / len(a)); }
+using test::D3;
+using test::cross;
+using test::dot;
+using test::len;
+using test::unit;
 
 enum class LightKind { Sphere, Quad, Triangle };
 

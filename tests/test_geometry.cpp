@@ -10,23 +10,16 @@
 #include <random>
 
 #include "core/geometry.h"
+#include "double_vec.h"
 #include "core/reservoir.h"
 
 namespace pn {
 namespace {
 
-struct D3 {
-  double x = 0, y = 0, z = 0;
-  D3() = default;
-  D3(double x_, double y_, double z_) : x(x_), y(y_), z(z_) {}
-  explicit D3(Vec3 v) : x(v.x), y(v.y), z(v.z) {}
-};
-D3 operator-(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-D3 operator+(D3 a, D3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-D3 operator*(D3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-double dot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-D3 cross(D3 a, D3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double len(D3 a) { return std::sqrt(dot(a, a)); }
+using test::D3;
+using test::cross;
+using test::dot;
+using test::len;
 
 struct Triangle {
   Vec3 p[3];
