@@ -52,7 +52,10 @@ def test_compare_is_the_z_test_it_describes(solid_angle):
     assert r["max_abs_z"] == pytest.approx(np.abs(z).max(), rel=1e-4)
     # The bound on the means is a test of its own, as given: never widened by their noise.
     ma, mb = a.astype(np.float64).mean(), b.astype(np.float64).mean()
-    se = np.sqrt(va.astype(np.float64).sum() + vb.sum()) / a.size / abs(mb)
+    # Its standard error bounds a pixel's channels as fully correlated: (sd_r + sd_g + sd_b)^2 a pixel.
+    sd_a = np.sqrt(va.astype(np.float64)).reshape(-1, 3).sum(axis=1)
+    sd_b = np.sqrt(vb.astype(np.float64)).reshape(-1, 3).sum(axis=1)
+    se = np.sqrt((sd_a**2).sum() + (sd_b**2).sum()) / a.size / abs(mb)
     assert r["mean_rel_diff"] == pytest.approx(abs(ma - mb) / abs(mb), rel=1e-4)
     assert r["mean_rel_se"] == pytest.approx(se, rel=1e-4)
     assert r["bound_pass"] == (r["mean_rel_diff"] <= 0.01)
