@@ -43,8 +43,7 @@ double plane_distance(const Triangle& t, D3 x) {
   const D3 n = cross(b - a, c - a);
   return dot(x - a, n) / len(n);
 }
-double edge_distance(const Triangle& t, D3 x) {
-  const D3 v[3] = {D3(t.p[0]), D3(t.p[1]), D3(t.p[2])};
+double edge_distance(const D3 v[3], D3 x) {
   const D3 n = cross(v[1] - v[0], v[2] - v[0]);
   double d = 1e300;
   for (int i = 0; i < 3; ++i) {
@@ -53,6 +52,10 @@ double edge_distance(const Triangle& t, D3 x) {
     d = std::min(d, dot(x - v[i], inward) / len(inward));
   }
   return d;
+}
+double edge_distance(const Triangle& t, D3 x) {
+  const D3 v[3] = {D3(t.p[0]), D3(t.p[1]), D3(t.p[2])};
+  return edge_distance(v, x);
 }
 
 double smallest_angle(const Triangle& t) {
@@ -85,7 +88,8 @@ TEST(Geometry, HitPointsAreWhereTheRayHits) {
     if (i % 4 == 2) b2 = std::ldexp(u(g), -30);
     if (i % 4 == 3) b2 = 1.f - b1;
     Vec3 p, err, n;
-    triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n);
+    float clearance = -1.f;
+    triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n, &clearance);
     const double b0 = 1.0 - double(b1) - double(b2);
     const D3 exact = D3(t.p[0]) * b0 + D3(t.p[1]) * double(b1) + D3(t.p[2]) * double(b2);
     const D3 d = D3(p) - exact;
@@ -115,8 +119,16 @@ TEST(Geometry, HitPointsAreWhereTheRayHits) {
       interior_moved += i % 4 == 0;
       ASSERT_LE(dist, (keep + bound) * corner) << i << " b " << b1 << " " << b2 << " bound " << bound;
     }
-    // The computed point is inside the triangle, off every edge (closed meshes stay closed).
+    // The computed point is inside the triangle, off every edge (closed meshes stay closed), and its
+    // clearance is a lower bound on how far: of the true point, and of the computed one.
     ASSERT_GT(edge_distance(t, D3(p)), 0.0) << i << " near edge " << near_edge;
+    ASSERT_GE(clearance, 0.f) << i;
+    ASSERT_LE(double(clearance), edge_distance(t, D3(p))) << i;
+    if (!near_edge) {
+      ASSERT_LE(double(clearance), edge_distance(t, exact)) << i;
+      // and a tight one, away from the edges: within the point's bound and a relative 1e-4.
+      ASSERT_GE(double(clearance), edge_distance(t, exact) * (1.0 - 1e-4) - 4.0 * bound) << i;
+    }
     // The bound is a rounding error, not a displacement: at most ~1e-6 of the coordinates' magnitude or the
     // triangle's size.
     const double mag = std::max({std::fabs(t.p[0].x), std::fabs(t.p[0].y), std::fabs(t.p[0].z),
@@ -141,25 +153,38 @@ TEST(Geometry, RayOriginsLeaveTheSurfaceBarelyAndOnTheRightSide) {
     if (degenerate(t)) continue;
     float b1 = u(g), b2 = u(g);
     if (b1 + b2 > 1.f) b1 = 1.f - b1, b2 = 1.f - b2;
+    // Every other hit with its clearance (the renderer's), every other without (the least reach).
     Vec3 p, err, n;
-    triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n);
+    float clearance = 0.f;
+    triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n, (i & 2) ? &clearance : nullptr);
     const float e = error_along(err, n);
+    const float reach = std::max(e / kMinOriginCos, clearance);
     const Vec3 side = (i & 1) ? n : -n;
-    // Directions over the whole hemisphere, grazing ones included.
+    // Directions over the whole hemisphere; every third one grazes at a cosine near e / reach, where the move
+    // along the ray reaches as far as the clearance allows.
     Vec3 w = normalize(Vec3(2.f * u(g) - 1.f, 2.f * u(g) - 1.f, 2.f * u(g) - 1.f));
+    if (i % 3 == 0) {
+      const Vec3 tangent = normalize(w - side * dot(w, side));
+      const float cos_target = std::min(1.f, 2.f * u(g) * e / reach);
+      w = normalize(tangent * std::sqrt(std::max(0.f, 1.f - cos_target * cos_target)) + side * cos_target);
+    }
     if (dot(w, side) < 0.f) w = -w;
     const float c = dot(w, side);
-    const Vec3 o = offset_ray_origin(p, side, e, w);
+    const Vec3 o = offset_ray_origin(p, side, PointBound(e, clearance), w);
     const double h = plane_distance(t, D3(o)) * ((i & 1) ? 1.0 : -1.0);
     ASSERT_GT(h, 0.0) << i;  // on the side the ray leaves towards
     // and no further than twice the bound plus the rounding of the move (a unit in the last place of o).
     const double ulp = std::max({std::fabs(o.x), std::fabs(o.y), std::fabs(o.z)}) * 1.2e-7;
     ASSERT_LE(h, 2.0 * e + 2.0 * ulp) << i;
-    // On the ray's own line through p (but for the rounding), unless it grazes: then within e of it.
+    // On the ray's own line through p (but for the rounding), unless it grazes beyond its reach: then within e
+    // of it.
     const D3 op = D3(o) - D3(p), wd(w);
     const double off_line = len(op - wd * dot(op, wd));
-    ASSERT_LE(off_line, (c >= kMinOriginCos ? 0.0 : double(e)) + 4.0 * ulp) << i << " cos " << c;
-    ASSERT_LE(dot(op, wd), double(e) / kMinOriginCos + double(e) + 4.0 * ulp) << i;
+    const bool on_line = c >= kMinOriginCos || e <= reach * c;
+    ASSERT_LE(off_line, (on_line ? 0.0 : double(e)) + 4.0 * ulp) << i << " cos " << c;
+    ASSERT_LE(dot(op, wd), double(reach) + double(e) + 4.0 * ulp) << i;
+    // Over the triangle itself: it cannot have left through a neighbouring face of a closed mesh.
+    ASSERT_GT(edge_distance(t, D3(o)), 0.0) << i << " cos " << c << " clearance " << clearance;
   }
 }
 
@@ -173,18 +198,28 @@ TEST(Geometry, InstanceTransformsKeepTheBound) {
     for (float& v : m.m) v = u(g) * 3.f;
     m.m[3] *= 100.f, m.m[7] *= 100.f, m.m[11] *= 100.f;
     const float b1 = 1.f / 3.f + 0.05f * u(g), b2 = 1.f / 3.f + 0.05f * u(g);  // far from edges: not moved
+    bool ok = false;
+    const Affine inv = inverse(m, &ok);
+    if (!ok || std::fabs(m.linear_determinant()) < 1e-2f) continue;
     Vec3 p, err, n;
-    triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n);
+    float clearance = 0.f;
+    triangle_hit(t.p[0], t.p[1], t.p[2], b1, b2, &p, &err, &n, &clearance);
     // The object-space point is within its bound (HitPointsAreWhereTheRayHits); here the transform's part: the
     // world point against the object point transformed exactly.
-    const D3 exact(p);
-    const D3 exact_world(m.m[0] * exact.x + m.m[1] * exact.y + m.m[2] * exact.z + m.m[3],
-                         m.m[4] * exact.x + m.m[5] * exact.y + m.m[6] * exact.z + m.m[7],
-                         m.m[8] * exact.x + m.m[9] * exact.y + m.m[10] * exact.z + m.m[11]);
-    instance_to_world(m, m, &p, &err, &n);  // the normal's transform does not matter here
+    const auto world = [&m](D3 x) {
+      return D3(m.m[0] * x.x + m.m[1] * x.y + m.m[2] * x.z + m.m[3], m.m[4] * x.x + m.m[5] * x.y + m.m[6] * x.z + m.m[7],
+                m.m[8] * x.x + m.m[9] * x.y + m.m[10] * x.z + m.m[11]);
+    };
+    const D3 exact_world = world(D3(p));
+    instance_to_world(m, inv, &p, &err, &n, &clearance);
     ASSERT_LE(std::fabs(p.x - exact_world.x), err.x) << i;
     ASSERT_LE(std::fabs(p.y - exact_world.y), err.y) << i;
     ASSERT_LE(std::fabs(p.z - exact_world.z), err.z) << i;
+    // The clearance, moved to world space, is still a lower bound on the world point's distance from the world
+    // triangle's edges.
+    const D3 v[3] = {world(D3(t.p[0])), world(D3(t.p[1])), world(D3(t.p[2]))};
+    ASSERT_GE(clearance, 0.f) << i;
+    ASSERT_LE(double(clearance), edge_distance(v, D3(p))) << i;
   }
 }
 

@@ -495,7 +495,7 @@ std::vector<test::MeanEstimator> restir_frames(const SphereField& field, const T
         const float us = rng.uniform();
         const Vec2 u = rng.uniform2();
         const DirectSample d = choose_direct_sample(scene, s, white, q.p, q.wo, true, us, u, &rng);
-        in[size_t(y * N + x)] = make_reservoir(tracer, scene, white, q.p, q.p_error, q.wo, d, rs.visibility_reuse != 0);
+        in[size_t(y * N + x)] = make_reservoir(tracer, scene, white, q.p, q.p_bound, q.wo, d, rs.visibility_reuse != 0);
       }
     if (rs.temporal) {
       for (size_t i = 0; i < pixels.size(); ++i)

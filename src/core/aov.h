@@ -107,7 +107,7 @@ PN_HD GuideSample trace_guides(const Tracer& tracer, const SceneView& scene, Ray
       const Vec3 wi = reflect(wo, bsdf.frame.n);
       if (cos_o > 0.f && dot(wi, bsdf.ng) > 0.f) {
         tint = tint * clamp01(bsdf_fresnel(bsdf, cos_o));
-        ray = Ray(offset_ray_origin(hit.p, bsdf.ng, hit.p_error, wi), wi);
+        ray = Ray(offset_ray_origin(hit.p, bsdf.ng, hit.p_bound, wi), wi);
         continue;
       }
     }

@@ -59,6 +59,14 @@ PN_FN float error_along(Vec3 p_error, Vec3 n) {
   return std::fabs(n.x) * p_error.x + std::fabs(n.y) * p_error.y + std::fabs(n.z) * p_error.z;
 }
 
+// What offset_ray_origin needs of a shading point besides where it is.
+struct PointBound {
+  float error = 0.f;      // bound on the point's distance from the true surface along n (error_along)
+  float clearance = 0.f;  // how far along the surface the point keeps from its primitive's edges (0: unknown)
+  PointBound() = default;
+  PN_HD PointBound(float error_, float clearance_ = 0.f) : error(error_), clearance(clearance_) {}  // NOLINT
+};
+
 // The origin of a ray leaving a surface point p in unit direction w: a point of
 // the ray's own line through p, `error` off the surface along the unit geometric
 // normal n (error: the bound on p's distance from the true surface along n,
@@ -68,23 +76,29 @@ PN_FN float error_along(Vec3 p_error, Vec3 n) {
 // point, as next-event estimation sees it. (pbrt-v4's OffsetRayOrigin moves the
 // origin along n instead; then a BSDF-sampled ray sees a light from a point
 // `error` above p, and MIS images of a plane under a light were 0.004-0.026% too
-// bright with large triangles, H200, 0.0002% standard errors.) Grazing rays,
-// cos < kMinOriginCos (14.5 degrees), move along w by error / kMinOriginCos and
-// along n by the rest: their line is off p by less than `error`, and a light seen
-// mostly at such angles is seen from a little above p (a quad 0.1 above a
-// 120 x 120 floor: MIS images 0.013-0.017% too bright on the H200). A cap of
-// 1 / 64 took that to 0.003% but needs edge_keep's band 16x wider, and the moved
-// hit points then showed along the floor's diagonal (mean z^2 4.8): the cap
-// wants each hit's distance to its edges instead. n must be on w's side.
+// bright with large triangles, H200, 0.0002% standard errors.)
+//
+// The move along the ray, error / cos, grows without bound as the ray grazes.
+// It may reach as far as the point's clearance from its primitive's edges, and
+// at least error / kMinOriginCos (the band edge_keep keeps every triangle hit
+// inside its edges): within that reach the origin stays over the point's own
+// primitive, no more than `error` off it, so it cannot pass through a
+// neighbouring face of a closed mesh. A ray too grazing for its reach moves that
+// far along itself and the rest of `error` along n: its line is off p by less
+// than `error`, and a light seen through it is seen from a little above p. With
+// a fixed reach of error / kMinOriginCos alone (no clearance), MIS images of a
+// quad 0.1 above a 120 x 120 floor, lit mostly at such angles, were 0.013-0.017%
+// too bright on the H200. n must be on w's side.
 constexpr float kMinOriginCos = 0.25f;
-PN_FN Vec3 offset_ray_origin(Vec3 p, Vec3 n, float error, Vec3 w) {
+PN_FN Vec3 offset_ray_origin(Vec3 p, Vec3 n, PointBound bound, Vec3 w) {
+  const float error = bound.error;
   const float c = dot(n, w);
+  const float reach = pn_max(error * (1.f / kMinOriginCos), bound.clearance);
   Vec3 o;
-  if (c >= kMinOriginCos) {
+  if (c > 0.f && error <= reach * c) {
     o = p + w * (error / c);
   } else if (c > 0.f) {
-    const float along = error / kMinOriginCos;
-    o = p + w * along + n * (error - along * c);
+    o = p + w * reach + n * (error - reach * c);
   } else {
     o = p + n * error;  // w below the surface (a ray nothing will count): off it along n alone
   }
@@ -96,8 +110,8 @@ PN_FN Vec3 offset_ray_origin(Vec3 p, Vec3 n, float error, Vec3 w) {
 }
 
 // How far inside every edge a triangle hit keeps (triangle_hit), so that a ray's
-// origin, which moves along the ray by up to error / kMinOriginCos, never leaves
-// a closed mesh through a neighbouring face.
+// origin, which moves along the ray by at least error / kMinOriginCos, never
+// leaves a closed mesh through a neighbouring face.
 PN_FN float edge_keep(float interpolation_error, float error_along_n) {
   return 2.f * interpolation_error + error_along_n * (1.f / kMinOriginCos);
 }
@@ -250,7 +264,11 @@ constexpr int kIntersectionUlps = 8;
 // close to an edge (tests/data/closed_box*.json; Geometry.HitPointsAreWhereTheRay-
 // Hits bounds the move). Its bias is second order: the band's share of the area
 // times the move.
-PN_FN void triangle_hit(Vec3 p0, Vec3 p1, Vec3 p2, float b1, float b2, Vec3* p, Vec3* p_error, Vec3* n) {
+//
+// `clearance`, where asked for, is a lower bound on the point's distance from
+// the triangle's edges (offset_ray_origin's reach; at least edge_keep's band).
+PN_FN void triangle_hit(Vec3 p0, Vec3 p1, Vec3 p2, float b1, float b2, Vec3* p, Vec3* p_error, Vec3* n,
+                        float* clearance = nullptr) {
   const Vec3 c = cross(p1 - p0, p2 - p0);
   const float inv_area2 = 1.f / length(c);
   float b[3] = {1.f - b1 - b2, b1, b2};
@@ -263,7 +281,8 @@ PN_FN void triangle_hit(Vec3 p0, Vec3 p1, Vec3 p2, float b1, float b2, Vec3* p, 
                              pn_max(pn_max(max_component(vabs(p1 - p0)), max_component(vabs(p2 - p0))),
                                     max_component(vabs(p2 - p1)));
   const float keep = edge_keep(length(err), error_along(err, n_unit) + 3.f * extent_bound) * inv_area2;
-  const float m[3] = {keep * length(p2 - p1), keep * length(p2 - p0), keep * length(p1 - p0)};
+  const float len[3] = {length(p2 - p1), length(p2 - p0), length(p1 - p0)};  // the edges opposite 0, 1, 2
+  const float m[3] = {keep * len[0], keep * len[1], keep * len[2]};
   if (b[0] < m[0] || b[1] < m[1] || b[2] < m[2]) {
     for (int i = 0; i < 3; ++i) {
       if (!(b[i] < m[i])) continue;
@@ -300,6 +319,12 @@ PN_FN void triangle_hit(Vec3 p0, Vec3 p1, Vec3 p2, float b1, float b2, Vec3* p, 
   *p_error = (vabs(p0 * b[0]) + vabs(p1 * b[1]) + vabs(p2 * b[2])) * fp_gamma(7) +
              Vec3(extent * fp_gamma(kIntersectionUlps));
   *n = c * inv_area2;
+  if (clearance) {
+    // The distance from edge i is b_i times the height over it, |c| / len_i; less a relative 1e-5 for the
+    // arithmetic here and twice the point's own error bound.
+    const float b_over_len = pn_min(pn_min(b[0] / len[0], b[1] / len[1]), b[2] / len[2]);
+    *clearance = pn_max(0.f, b_over_len * (1.f - 1e-5f) / inv_area2 - 2.f * length(*p_error));
+  }
 }
 
 // Sphere: outward normal; the point is re-projected onto the surface (pbrt's
@@ -313,8 +338,12 @@ PN_FN void sphere_hit(Vec3 center, float radius, const Ray& ray, float t, Vec3* 
 
 // Moves an object-space point, its error bound and normal of an instance into
 // world space; the bound grows by the transform's own rounding (pbrt-v4's
-// Transform applied to a point with error).
-PN_FN void instance_to_world(const Affine& to_world, const Affine& to_object, Vec3* p, Vec3* p_error, Vec3* n) {
+// Transform applied to a point with error). A clearance (triangle_hit's) scales
+// by no less than the transform's smallest singular value, 1 / |B|_2 for B
+// to_object's linear part, and |B|_2 is at most |B|_F (sqrt(3) for the identity:
+// a conservative reach); then it shrinks by the world point's error.
+PN_FN void instance_to_world(const Affine& to_world, const Affine& to_object, Vec3* p, Vec3* p_error, Vec3* n,
+                             float* clearance = nullptr) {
   const float* m = to_world.m;
   const Vec3 q = *p, e = *p_error;
   Vec3 err;
@@ -326,6 +355,13 @@ PN_FN void instance_to_world(const Affine& to_world, const Affine& to_object, Ve
   *p = to_world.point(q);
   *p_error = err;
   *n = normalize(to_object.transpose_vector(*n));
+  if (clearance) {
+    const float* a = to_object.m;
+    float frobenius2 = 0.f;
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) frobenius2 += a[4 * r + k] * a[4 * r + k];
+    *clearance = pn_max(0.f, *clearance * (1.f - 1e-5f) / std::sqrt(frobenius2) - length(err));
+  }
 }
 
 }  // namespace pn

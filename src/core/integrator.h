@@ -157,8 +157,8 @@ struct ShadowQuery {
 // path's throughput: f * L * cos / (P(light) p_light) times its MIS weight
 // (times p W for a resampled one), counted if the shadow ray is clear.
 template <uint32_t kFeatures = kAllFeatures>
-PN_FN ShadowQuery direct_shadow_query(const IntegratorSettings& s, const Bsdf& bsdf, Vec3 p, float p_error, Vec3 wo,
-                                      const DirectSample& d) {
+PN_FN ShadowQuery direct_shadow_query(const IntegratorSettings& s, const Bsdf& bsdf, Vec3 p, PointBound p_bound,
+                                      Vec3 wo, const DirectSample& d) {
   constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
   ShadowQuery q;
   if (!(d.sel.pmf > 0.f)) return q;
@@ -166,7 +166,7 @@ PN_FN ShadowQuery direct_shadow_query(const IntegratorSettings& s, const Bsdf& b
   // The shadow ray leaves on the side of the geometric surface wi points to
   // (bsdf_eval is 0 otherwise) and runs to the sampled point itself, so that
   // the offset can never carry it past the light's surface.
-  const ShadowRay r = light_shadow_ray(p, p_error, bsdf.ng, ls.wi, ls.y, ls.infinite);
+  const ShadowRay r = light_shadow_ray(p, p_bound, bsdf.ng, ls.wi, ls.y, ls.infinite);
   q.ray = r.ray;
   q.tmax = r.tmax;
   q.kind = ShadowKind::Radiance;
@@ -182,8 +182,8 @@ PN_FN ShadowQuery direct_shadow_query(const IntegratorSettings& s, const Bsdf& b
 // The radiance of a chosen light sample (direct_shadow_query), its shadow ray traced now.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 shade_direct_sample(const Tracer& tracer, const IntegratorSettings& s, const Bsdf& bsdf, Vec3 p,
-                               float p_error, Vec3 wo, const DirectSample& d) {
-  const ShadowQuery q = direct_shadow_query<kFeatures>(s, bsdf, p, p_error, wo, d);
+                               PointBound p_bound, Vec3 wo, const DirectSample& d) {
+  const ShadowQuery q = direct_shadow_query<kFeatures>(s, bsdf, p, p_bound, wo, d);
   if (q.kind == ShadowKind::None || tracer.occluded(q.ray, q.tmax)) return Vec3(0.f);
   return q.contribution;
 }
@@ -193,9 +193,9 @@ PN_HD Vec3 shade_direct_sample(const Tracer& tracer, const IntegratorSettings& s
 // loop and the direct-lighting tests.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, const IntegratorSettings& s,
-                           const Bsdf& bsdf, Vec3 p, float p_error, Vec3 wo, float u_select, Vec2 u) {
+                           const Bsdf& bsdf, Vec3 p, PointBound p_bound, Vec3 wo, float u_select, Vec2 u) {
   const DirectSample d = choose_direct_sample<kFeatures>(scene, s, bsdf, p, wo, false, u_select, u, nullptr);
-  return shade_direct_sample<kFeatures>(tracer, s, bsdf, p, p_error, wo, d);
+  return shade_direct_sample<kFeatures>(tracer, s, bsdf, p, p_bound, wo, d);
 }
 
 // Convenience for tests: a strategy with the default MIS and selection off, at an exact point p.
@@ -215,8 +215,9 @@ PN_HD Vec3 estimate_direct(const Tracer& tracer, const SceneView& scene, Strateg
 // the shadow query that sets it (ShadowKind::Reservoir); without, W is set now
 // (the target stays unshadowed) and *q is none.
 template <uint32_t kFeatures = kAllFeatures>
-PN_FN Reservoir reservoir_before_visibility(const SceneView& scene, const Bsdf& bsdf, Vec3 p, float p_error, Vec3 wo,
-                                            const DirectSample& d, ShadowQuery* q, bool visibility_reuse = true) {
+PN_FN Reservoir reservoir_before_visibility(const SceneView& scene, const Bsdf& bsdf, Vec3 p, PointBound p_bound,
+                                            Vec3 wo, const DirectSample& d, ShadowQuery* q,
+                                            bool visibility_reuse = true) {
   Reservoir r;
   *q = ShadowQuery();
   r.M = float(d.M);
@@ -230,7 +231,7 @@ PN_FN Reservoir reservoir_before_visibility(const SceneView& scene, const Bsdf& 
     r.W = d.w_sum / (r.M * t.p_hat);
     return r;
   }
-  const ShadowRay sr = light_shadow_ray(p, p_error, bsdf.ng, t.wi, r.s.y, r.s.infinite != 0);
+  const ShadowRay sr = light_shadow_ray(p, p_bound, bsdf.ng, t.wi, r.s.y, r.s.infinite != 0);
   q->ray = sr.ray;
   q->tmax = sr.tmax;
   q->reservoir_W = d.w_sum / (r.M * t.p_hat);
@@ -240,10 +241,10 @@ PN_FN Reservoir reservoir_before_visibility(const SceneView& scene, const Bsdf& 
 
 // The same with its shadow ray traced now.
 template <uint32_t kFeatures = kAllFeatures, class Tracer>
-PN_HD Reservoir make_reservoir(const Tracer& tracer, const SceneView& scene, const Bsdf& bsdf, Vec3 p, float p_error,
-                               Vec3 wo, const DirectSample& d, bool visibility_reuse = true) {
+PN_HD Reservoir make_reservoir(const Tracer& tracer, const SceneView& scene, const Bsdf& bsdf, Vec3 p,
+                               PointBound p_bound, Vec3 wo, const DirectSample& d, bool visibility_reuse = true) {
   ShadowQuery q;
-  Reservoir r = reservoir_before_visibility<kFeatures>(scene, bsdf, p, p_error, wo, d, &q, visibility_reuse);
+  Reservoir r = reservoir_before_visibility<kFeatures>(scene, bsdf, p, p_bound, wo, d, &q, visibility_reuse);
   if (q.kind == ShadowKind::Reservoir && !tracer.occluded(q.ray, q.tmax)) r.W = q.reservoir_W;
   return r;
 }
@@ -422,15 +423,15 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
       RestirPixel& px = *primary->pixel;
       px.bsdf = pack_bsdf(bsdf);
       px.p = hit.p;
-      px.p_error = hit.p_error;
+      px.p_bound = hit.p_bound;
       px.wo = wo;
       px.t = hit.t;
       px.valid = 1;
       *primary->reservoir =
-          reservoir_before_visibility<kFeatures>(scene, bsdf, hit.p, hit.p_error, wo, d, &q,
+          reservoir_before_visibility<kFeatures>(scene, bsdf, hit.p, hit.p_bound, wo, d, &q,
                                                  s.restir.visibility_reuse != 0);
     } else {
-      q = direct_shadow_query<kFeatures>(s, bsdf, hit.p, hit.p_error, wo, d);
+      q = direct_shadow_query<kFeatures>(s, bsdf, hit.p, hit.p_bound, wo, d);
       q.contribution = st.beta * q.contribution;
     }
     if (now && q.kind != ShadowKind::None) {
@@ -455,7 +456,7 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
     if (rng.uniform() < p_end) return q;
     st.beta *= 1.f / (1.f - p_end);
   }
-  st.ray = Ray(offset_ray_origin(hit.p, bsdf.ng, hit.p_error, bs.wi), bs.wi);
+  st.ray = Ray(offset_ray_origin(hit.p, bsdf.ng, hit.p_bound, bs.wi), bs.wi);
   st.depth = depth + 1;
   st.active = 1;
   return q;

@@ -86,7 +86,7 @@ struct alignas(16) RestirPixel {
   Vec3 wo;
   float t = 0.f;        // distance from the camera (neighbour similarity)
   uint32_t valid = 0;   // 0: the camera ray found no surface that reflects
-  float p_error = 0.f;  // p's error bound along the normal (SurfaceHit::p_error), for shadow rays from p
+  PointBound p_bound;  // SurfaceHit::p_bound, for shadow rays from p
 };
 
 // Where a camera sample's primary pass writes (null: an ordinary path).
@@ -136,8 +136,8 @@ PN_FN TargetEval restir_target(const SceneView& scene, const Bsdf& bsdf, Vec3 p,
   return t;
 }
 
-// The shadow ray of next-event estimation from shading point p (error bound
-// p_error along ng, the geometric normal on wi's side) towards the light point
+// The shadow ray of next-event estimation from shading point p (its bounds
+// p_bound; ng the geometric normal on wi's side) towards the light point
 // y: from the offset origin to y itself, stopping kShadowEpsilon short;
 // unbounded for the environment.
 struct ShadowRay {
@@ -145,8 +145,8 @@ struct ShadowRay {
   float tmax = 0.f;
 };
 
-PN_FN ShadowRay light_shadow_ray(Vec3 p, float p_error, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
-  const Vec3 o = offset_ray_origin(p, ng, p_error, wi);
+PN_FN ShadowRay light_shadow_ray(Vec3 p, PointBound p_bound, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
+  const Vec3 o = offset_ray_origin(p, ng, p_bound, wi);
   if (infinite) return ShadowRay{Ray(o, wi), kInf};
   const Vec3 to_light = y - o;
   const float dist = length(to_light);
@@ -164,8 +164,8 @@ struct tracer_records_only<Tracer, std::void_t<decltype(Tracer::kRecordsOnly)>>
 
 // Whether the light point is visible from shading point p: its shadow ray is clear.
 template <class Tracer>
-PN_HD bool light_visible(const Tracer& tracer, Vec3 p, float p_error, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
-  const ShadowRay r = light_shadow_ray(p, p_error, ng, wi, y, infinite);
+PN_HD bool light_visible(const Tracer& tracer, Vec3 p, PointBound p_bound, Vec3 ng, Vec3 wi, Vec3 y, bool infinite) {
+  const ShadowRay r = light_shadow_ray(p, p_bound, ng, wi, y, infinite);
   return !tracer.occluded(r.ray, r.tmax);
 }
 

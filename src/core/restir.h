@@ -96,7 +96,7 @@ template <uint32_t kFeatures = kAllFeatures, class Tracer>
 PN_HD float restir_reuse_target(const Tracer& tracer, const SceneView& scene, const RestirPixel& at,
                                 const LightPoint& y, bool shadowed) {
   const TargetEval t = restir_target<kFeatures>(scene, unpack_bsdf(at.bsdf), at.p, at.wo, y);
-  if (shadowed && t.p_hat > 0.f && !light_visible(tracer, at.p, at.p_error, at.bsdf.ng, t.wi, y.y, y.infinite != 0)) return 0.f;
+  if (shadowed && t.p_hat > 0.f && !light_visible(tracer, at.p, at.p_bound, at.bsdf.ng, t.wi, y.y, y.infinite != 0)) return 0.f;
   return t.p_hat;
 }
 
@@ -304,7 +304,7 @@ PN_HD Vec3 restir_shade(const Tracer& tracer, const SceneView& scene, const Inte
   const Bsdf bsdf = unpack_bsdf(q.bsdf);
   const TargetEval t = restir_target<kFeatures>(scene, bsdf, q.p, q.wo, r.s);
   if (!(t.p_hat > 0.f)) return Vec3(0.f);
-  if (!restir_reuse_traces(s.restir) && !light_visible(tracer, q.p, q.p_error, q.bsdf.ng, t.wi, r.s.y, r.s.infinite != 0))
+  if (!restir_reuse_traces(s.restir) && !light_visible(tracer, q.p, q.p_bound, q.bsdf.ng, t.wi, r.s.y, r.s.infinite != 0))
     return Vec3(0.f);
   if constexpr (tracer_records_only<Tracer>::value) return Vec3(0.f);  // its one query is made: the rest is discarded
   float w = 1.f;

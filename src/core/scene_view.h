@@ -58,7 +58,7 @@ struct HitRecord {
 struct SurfaceHit {
   float t = kInf;
   Vec3 p;          // hit point: where the ray hit, to rounding
-  float p_error = 0.f;  // bound on p's distance from the true surface along n (error_along): offset_ray_origin's
+  PointBound p_bound;  // p's error bound along n and its clearance from its primitive's edges: offset_ray_origin's
   Vec3 n;          // unit geometric normal, as modelled (not flipped towards the ray)
   Vec3 ns;         // unit shading normal (interpolated vertex normals), same side as n
   Vec2 uv;         // texture coordinates (0 without)
@@ -121,7 +121,8 @@ PN_FN void resolve_triangle_hit(const InstanceView& inst, uint32_t tri, float b1
   const uint32_t i0 = m.indices[3 * tri], i1 = m.indices[3 * tri + 1], i2 = m.indices[3 * tri + 2];
   const Vec3 p0 = m.positions[i0], p1 = m.positions[i1], p2 = m.positions[i2];
   Vec3 p, p_error, n;
-  triangle_hit(p0, p1, p2, b1, b2, &p, &p_error, &n);
+  float clearance;
+  triangle_hit(p0, p1, p2, b1, b2, &p, &p_error, &n, &clearance);
   Vec3 ns = n;
   if (kShading && m.normals) {
     const float b0 = 1.f - b1 - b2;
@@ -149,10 +150,10 @@ PN_FN void resolve_triangle_hit(const InstanceView& inst, uint32_t tri, float b1
       if (inst.to_world.linear_determinant() < 0.f) sign = -sign;
     }
   }
-  instance_to_world(inst.to_world, inst.to_object, &p, &p_error, &n);
+  instance_to_world(inst.to_world, inst.to_object, &p, &p_error, &n, &clearance);
   hit->p = p;
   hit->n = n;
-  hit->p_error = error_along(p_error, n);
+  hit->p_bound = PointBound(error_along(p_error, n), clearance);
   hit->ns = kShading ? normalize(inst.to_object.transpose_vector(ns)) : hit->n;
   hit->dpdu = inst.to_world.vector(dpdu);
   hit->bitangent_sign = sign;
@@ -172,7 +173,7 @@ PN_FN SurfaceHit resolve_hit(const SceneView& scene, const Ray& ray, const HitRe
     const SphereView& s = scene.spheres[rec.prim];
     Vec3 p_error;
     sphere_hit(s.center, s.radius, ray, rec.t, &hit.p, &p_error, &hit.n);
-    hit.p_error = error_along(p_error, hit.n);
+    hit.p_bound = PointBound(error_along(p_error, hit.n));  // no clearance: a sphere has no edges to keep from
     hit.ns = hit.n;
     hit.material = s.material;
     hit.light = s.light;
