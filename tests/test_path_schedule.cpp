@@ -328,11 +328,12 @@ TEST(ShadowOrder, PlacesEveryQueryOnceInCellOrder) {
   for (uint32_t j = 0; j < n; ++j) EXPECT_EQ(placed[j], 1u) << j;
 }
 
-// The shadow order's environment: unset is auto, traced from the light; a misspelt order is an error that names
-// the variable and the value (the GPU's wavefront reads it before allocating anything).
+// The shadow order's environment: unset is auto, traced forward (from the light only with
+// PENUMBRA_SHADOW_REVERSE=1); a misspelt order is an error that names the variable and the value (the GPU's
+// wavefront reads it before allocating anything).
 TEST(ShadowOrder, EnvironmentSettingAndItsErrors) {
   EXPECT_EQ(shadow_order_setting(nullptr, nullptr).mode, OrderMode::Auto);
-  EXPECT_TRUE(shadow_order_setting(nullptr, nullptr).reverse);
+  EXPECT_FALSE(shadow_order_setting(nullptr, nullptr).reverse);
   EXPECT_EQ(shadow_order_setting("auto", nullptr).mode, OrderMode::Auto);
   EXPECT_EQ(shadow_order_setting("direction", "1").mode, OrderMode::Ordered);
   EXPECT_TRUE(shadow_order_setting("direction", "1").reverse);

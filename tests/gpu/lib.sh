@@ -102,6 +102,11 @@ same_paths() {  # same_paths A B LABEL: PASS with a relative difference of 0.00 
   [[ $st == 0 && $line == *"rel. diff 0.00"* ]]
   record "$3" $?
 }
+within_rel() {  # within_rel A B MAX_REL_DIFF LABEL: `penumbra compare` PASS with the image means within the bound
+  "$penumbra" compare --max-rel-diff "$3" "$out/$1.exr" "$out/$1_var.exr" "$out/$2.exr" "$out/$2_var.exr" \
+    | tee "$out/$2_vs_$1.txt"
+  record "$4" "${PIPESTATUS[0]}"
+}
 same_bytes() {  # same_bytes A B LABEL: the two EXR files byte for byte
   cmp -s "$out/$1.exr" "$out/$2.exr"
   record "$3" $?

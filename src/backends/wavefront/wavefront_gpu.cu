@@ -444,7 +444,7 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   order_shadow_ = choose_order(fuse_shadow_ && trace_->offers_shadow_apply(),
                                "the trace stage does not fuse tracing and applying shadow rays", setting.mode,
                                "PENUMBRA_SHADOW_ORDER", "direction", visits, kShadowOrderMinVisits, &order_reason_);
-  if (order_shadow_ && !setting.reverse) order_reason_ += ", traced forward (PENUMBRA_SHADOW_REVERSE=0)";
+  if (order_shadow_ && setting.reverse) order_reason_ += ", traced from the light (PENUMBRA_SHADOW_REVERSE=1)";
   view_.shadow_order.reverse = setting.reverse ? 1u : 0u;
   if (order_shadow_) {
     check(cudaMemset(view_.shadow_order.cell_count, 0, kShadowCells * sizeof(uint32_t)), "the direction cells");
