@@ -4,9 +4,9 @@
 # PENUMBRA_TEST_SPP_SCALE times CI's samples, so that every technique's image mean has a standard error below
 # 0.01% (CTest gpu.closed_form.MODE).
 #
-#   tests/gpu/closed_form.sh PENUMBRA OUT_DIR CLOSED_FORM_TESTS MODE SPP_SCALE
+#   tests/gpu/closed_form.sh PENUMBRA OUT_DIR CLOSED_FORM_TESTS MODE SPP_SCALE [GTEST_FILTER]
 #
-# MODE: cuda or optix (the wavefront's trace stage) or megakernel (not a CTest test: too slow, see CMakeLists.txt).
+# MODE: cuda or optix (the wavefront's trace stage) or megakernel. GTEST_FILTER narrows the cases.
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh" "closed_form" "$@"
 gpu_probe
 binary=${args[0]:?closed-form test executable} mode=${args[1]:?mode} scale=${args[2]:?spp scale}
@@ -16,7 +16,7 @@ case $mode in
   megakernel) export PENUMBRA_TEST_MEGAKERNEL=1 ;;
   *) echo "closed_form: unknown mode $mode" >&2; exit 2 ;;
 esac
-"$binary" --gtest_color=no >"$out/closed_form_$mode.log" 2>&1
+"$binary" --gtest_color=no --gtest_filter="${args[3]:-*}" >"$out/closed_form_$mode.log" 2>&1
 st=$?
 grep -E "^  [A-Za-z]" "$out/closed_form_$mode.log"
 record "closed forms on the GPU ($mode, $scale x CI's samples)" $st
