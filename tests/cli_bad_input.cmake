@@ -75,10 +75,10 @@ endif()
 expect_failure("lights[0].radius" ${PENUMBRA} render cornell-sphere --set light.radius=nan --backend cpu -o ${WORK}/x.png)
 expect_failure("--set" ${PENUMBRA} render cornell-sphere --set light.nosuch.x=1 --backend cpu -o ${WORK}/x.png)
 expect_usage(--backend "vulkan" ${PENUMBRA} render cornell-sphere --backend vulkan)
-# Denoising needs the GPU backend: one line, before any work (no image is written).
+# The OptiX denoiser needs the GPU backend: one line, before any work (no image is written).
 file(REMOVE ${WORK}/dn.png ${WORK}/dn_denoised.png)
-expect_failure("--denoise: denoising needs the GPU backend" ${PENUMBRA} render cornell-sphere --width 8 --height 8
-               --spp 1 --backend cpu --denoise -o ${WORK}/dn.png)
+expect_failure("--denoise: the OptiX AI denoiser needs the GPU backend" ${PENUMBRA} render cornell-sphere --width 8
+               --height 8 --spp 1 --backend cpu --denoise --denoiser optix -o ${WORK}/dn.png)
 if(EXISTS ${WORK}/dn.png OR EXISTS ${WORK}/dn_denoised.png)
-  message(FATAL_ERROR "render --denoise --backend cpu wrote an image before failing")
+  message(FATAL_ERROR "render --denoise --denoiser optix --backend cpu wrote an image before failing")
 endif()

@@ -8,6 +8,7 @@
 #include "core/aov.h"
 #include "render/backend.h"
 #include "render/denoise.h"
+#include "render/film.h"
 #include "scene/scene.h"
 
 namespace pn {
@@ -178,20 +179,83 @@ TEST(Guides, AlbedoEstimateOfLambertIsItsBaseColour) {
   EXPECT_FALSE(guide_follows_specular(make_bsdf(Vec3(1.f), 0.5f, 0.f, 0.f, n, n)));  // half diffuse
 }
 
-// On the CPU, asking for the denoiser is one line that names the GPU backend.
-TEST(Denoise, NeedsTheGpuBackend) {
+// On the CPU, asking for the OptiX denoiser is one line that names the GPU backend and the way out.
+TEST(Denoise, OptixNeedsTheGpuBackend) {
+  DenoiseOptions optix;
+  optix.denoiser = DenoiserKind::Optix;
   try {
-    check_denoise_choice("--denoise", "cpu");
+    check_denoise_choice("--denoise", "cpu", optix);
     FAIL() << "no error";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("denoising needs the GPU backend"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("the OptiX AI denoiser needs the GPU backend"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("--denoiser oidn"), std::string::npos) << e.what();
     EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
   }
   const Scene s = load_scene("cornell-sphere", {"render.width=8", "render.height=8"});
   std::string note;
   auto cpu = make_backend("cpu", s, BackendOptions{1}, &note);
-  EXPECT_THROW(check_denoise_backend("denoise", *cpu), std::runtime_error);
-  EXPECT_THROW(denoise_render(*cpu, frame_spec(s), std::vector<float>(8 * 8 * 3, 0.5f)), std::runtime_error);
+  EXPECT_THROW(check_denoise_backend("denoise", *cpu, optix), std::runtime_error);
+  EXPECT_THROW(denoise_render(*cpu, frame_spec(s), std::vector<float>(8 * 8 * 3, 0.5f), optix), std::runtime_error);
+}
+
+// Without Intel Open Image Denoise's library, one line names what was tried and how to get it.
+TEST(Denoise, MissingOidnSaysHowToGetIt) {
+  DenoiseOptions o;
+  o.oidn_library = "/nonexistent/libOpenImageDenoise.so.2";
+  try {
+    check_denoise_choice("--denoise", "cpu", o);
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("/nonexistent/libOpenImageDenoise.so.2"), std::string::npos) << m;
+    EXPECT_NE(m.find("pip install pyoidn"), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
+}
+
+DenoiseOptions oidn_or_skip() {
+  DenoiseOptions o;
+  o.oidn_library = PENUMBRA_TEST_OIDN_LIBRARY;
+  return o;
+}
+#define SKIP_WITHOUT_OIDN(o)                                                                             \
+  if ((o).oidn_library.empty())                                                                          \
+  GTEST_SKIP() << "Intel Open Image Denoise not found at configure time (pip install pyoidn, then cmake again)"
+
+// OIDN on the CPU backend: the denoised image of a noisy render is finite, of the image's size, and its guides
+// are the backend's; bad input is a clear error, or a counted repair.
+TEST(Denoise, OidnOnTheCpuBackend) {
+  const DenoiseOptions o = oidn_or_skip();
+  SKIP_WITHOUT_OIDN(o);
+  const Scene s = load_scene("cornell-sphere", {"render.width=48", "render.height=32", "render.spp=4"});
+  std::string note;
+  auto cpu = make_backend("cpu", s, BackendOptions{1}, &note);
+  Film film(48, 32);
+  cpu->render(frame_spec(s), film, 0, 4);
+  std::vector<float> mean = film.mean();
+  const DenoisedImage d = denoise_render(*cpu, frame_spec(s), mean, o);
+  ASSERT_EQ(d.rgb.size(), mean.size());
+  for (float v : d.rgb) ASSERT_TRUE(std::isfinite(v));
+  EXPECT_EQ(d.guides.albedo.size(), mean.size());
+  EXPECT_NE(d.how.find("CPU device"), std::string::npos) << d.how;
+  EXPECT_EQ(d.repaired, 0u);
+  // A NaN and an infinity: set to 0 before denoising, counted, and the output stays finite.
+  mean[5] = std::nanf("");
+  mean[100] = INFINITY;
+  size_t repaired = 0;
+  const std::vector<float> r = denoise_image(*cpu, mean, d.guides, o, nullptr, nullptr, &repaired);
+  EXPECT_EQ(repaired, 2u);
+  for (float v : r) ASSERT_TRUE(std::isfinite(v));
+  // Guides of another size: one line naming the guide.
+  GuideImages wrong = d.guides;
+  wrong.albedo.resize(10);
+  try {
+    denoise_image(*cpu, film.mean(), wrong, o);
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("albedo guide"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

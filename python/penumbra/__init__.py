@@ -42,7 +42,25 @@ SceneLike = Union[str, "os.PathLike[str]", Mapping[str, Any], "Scene"]
 file), or a Scene."""
 
 _BACKENDS = ("auto", "cpu", "optix")
-_DENOISE_NEEDS_GPU = "denoising needs the GPU backend (the OptiX AI denoiser)"
+_DENOISERS = ("oidn", "optix")
+_DENOISE_QUALITIES = ("fast", "balanced", "high")
+
+
+def _oidn_library() -> str:
+    """libOpenImageDenoise of the PyPI package pyoidn where it is installed, else "" (the system's)."""
+    import importlib.util
+    spec = importlib.util.find_spec("pyoidn")
+    if spec is None or not spec.origin:
+        return ""
+    path = os.path.join(os.path.dirname(spec.origin), "oidn", "lib", "libOpenImageDenoise.so.2")
+    return path if os.path.exists(path) else ""
+
+
+def _check_denoiser(denoiser: str, quality: str) -> None:
+    if denoiser not in _DENOISERS:
+        raise ValueError(f"denoiser must be one of {', '.join(_DENOISERS)}, not {denoiser!r}")
+    if quality not in _DENOISE_QUALITIES:
+        raise ValueError(f"denoise_quality must be one of {', '.join(_DENOISE_QUALITIES)}, not {quality!r}")
 
 
 def _jsonable(value: Any) -> Any:
@@ -189,7 +207,8 @@ def load_scene(scene: SceneLike, overrides: Optional[Mapping[str, Any]] = None) 
 def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[int] = None,
            width: Optional[int] = None, height: Optional[int] = None, seed: Optional[int] = 0,
            max_depth: Optional[int] = None, backend: str = "auto", mis: Optional[str] = None,
-           denoise: bool = False, overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
+           denoise: bool = False, denoiser: str = "oidn", denoise_quality: str = "high",
+           overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
            gpus: GpusLike = "all", progress: Optional[ProgressFn] = None) -> Image:
     """Renders a scene and returns the image.
 
@@ -209,9 +228,12 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
             ``image.stats["note"]`` says which and why).
         mis: multiple importance sampling ("none", "balance" or "power"), passed as the
             scene value render.mis where this penumbra's scenes have it.
-        denoise: also denoise the image with the OptiX AI denoiser (GPU backend only):
-            ``image.denoised`` is the denoised mean and ``image.albedo``, ``image.normal`` the
-            denoiser's guides, float32 (H, W, 3) numpy arrays (None without denoise).
+        denoise: also denoise the image: ``image.denoised`` is the denoised mean and
+            ``image.albedo``, ``image.normal`` the denoiser's guides, float32 (H, W, 3) numpy
+            arrays (None without denoise); ``image.stats["denoiser"]`` says which ran.
+        denoiser: "oidn" (Intel Open Image Denoise, every backend: the PyPI package pyoidn's
+            library, else the system's) or "optix" (the OptiX AI denoiser, GPU backend only).
+        denoise_quality: OIDN's "fast", "balanced" or "high".
         overrides: other scene values to change (see load_scene).
         threads: CPU threads (default: all cores).
         gpus: the GPUs of the "optix" backend: "all" (default), a number N (the first N)
@@ -221,20 +243,21 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
 
     Raises:
         SceneError: a bad scene or setting (names the field).
-        BackendError: the backend cannot run here, or failed; denoise=True on the CPU backend
-            (before any rendering).
+        BackendError: the backend cannot run here, or failed; the denoiser cannot run (OIDN's
+            library not found, or denoiser="optix" on the CPU backend), before any rendering.
         KeyboardInterrupt: Ctrl-C stops the render.
     """
-    if denoise and _check_backend(backend) == "cpu":
-        raise BackendError(f"denoise=True: {_DENOISE_NEEDS_GPU}: backend='cpu' renders on the CPU")
+    _check_denoiser(denoiser, denoise_quality)
+    if denoise and denoiser == "optix" and _check_backend(backend) == "cpu":
+        raise BackendError("denoise=True: the OptiX AI denoiser needs the GPU backend: backend='cpu' renders on the "
+                           "CPU (denoiser='oidn' denoises on any backend)")
     s = load_scene(scene, overrides)
     r = Renderer(s, backend=backend, strategy=strategy, spp=spp, width=width, height=height, seed=seed,
                  max_depth=max_depth, mis=mis, threads=threads, gpus=gpus)
-    if denoise and r.backend != "optix":
-        raise BackendError(f"denoise=True: {_DENOISE_NEEDS_GPU}: the image is rendered on the {r.backend} backend "
-                           f"({r.note})")
+    if denoise:  # the denoiser's checks (its library, its backend) before rendering
+        r._check_denoise(denoiser, denoise_quality)
     img = r.render(r.settings["spp"], progress=progress)
-    return r.image(denoise=True) if denoise else img
+    return r.image(denoise=True, denoiser=denoiser, denoise_quality=denoise_quality) if denoise else img
 
 
 class Renderer:
@@ -273,13 +296,23 @@ class Renderer:
         self._r.render(spp, progress)
         return self._r.image()
 
-    def image(self, *, denoise: bool = False) -> Image:
+    def image(self, *, denoise: bool = False, denoiser: str = "oidn", denoise_quality: str = "high") -> Image:
         """The image of all samples so far (a snapshot: later samples do not change it).
 
-        With ``denoise`` (GPU backend only, else BackendError), also ``image.denoised``
-        and its guides ``image.albedo``, ``image.normal`` (see render()); the guides are
-        rendered once per frame and kept until the image starts over."""
-        return self._r.image(denoise)
+        With ``denoise``, also ``image.denoised`` and its guides ``image.albedo``,
+        ``image.normal`` (see render() for the denoiser's choices; BackendError where it
+        cannot run); the guides are rendered once per frame and kept until the image
+        starts over."""
+        _check_denoiser(denoiser, denoise_quality)
+        return self._r.image(denoise, denoiser, denoise_quality, _oidn_library() if denoiser == "oidn" else "")
+
+    def _check_denoise(self, denoiser: str, denoise_quality: str) -> None:
+        """BackendError where the denoiser cannot run on this renderer (before any samples)."""
+        if denoiser == "optix" and self.backend != "optix":
+            raise BackendError("denoise=True: the OptiX AI denoiser needs the GPU backend: the image is rendered on "
+                               f"the {self.backend} backend ({self.note}) (denoiser='oidn' denoises on any backend)")
+        if denoiser == "oidn":
+            self._r.check_oidn(_oidn_library())
 
     def reset(self) -> None:
         """Drops the samples: the next render() starts a new image."""

@@ -282,7 +282,7 @@ them without a copy to the host.)")
       .def_prop_ro("variance", [](PyImage& i) { return host_view(i, true); },
                    "Variance of the mean, float32 (H, W, 3), read-only")
       .def_prop_ro("denoised", [](PyImage& i) { return denoise_view(i, i.data->denoised); },
-                   "The mean denoised by the OptiX AI denoiser, float32 (H, W, 3), read-only; None unless denoised")
+                   "The denoised mean (stats['denoiser'] says which ran), float32 (H, W, 3), read-only; None unless denoised")
       .def_prop_ro("albedo", [](PyImage& i) { return denoise_view(i, i.data->albedo); },
                    "The denoiser's albedo guide, float32 (H, W, 3) in [0, 1]; None unless denoised")
       .def_prop_ro("normal", [](PyImage& i) { return denoise_view(i, i.data->normal); },
@@ -362,8 +362,29 @@ them without a copy to the host.)")
           },
           "spp"_a, "progress"_a.none() = nb::none())
       .def(
-          "image", [](Renderer& r, bool denoise) { return PyImage{backend_call([&] { return r.image(denoise); })}; },
-          "denoise"_a = false)
+          "image",
+          [](Renderer& r, bool denoise, const std::string& denoiser, const std::string& quality,
+             const std::string& oidn_library) {
+            DenoiseOptions o;
+            o.denoiser = denoiser == "optix" ? DenoiserKind::Optix : DenoiserKind::Oidn;
+            o.quality = quality == "fast" ? DenoiseQuality::Fast
+                        : quality == "balanced" ? DenoiseQuality::Balanced
+                                                : DenoiseQuality::High;
+            o.oidn_library = oidn_library;
+            return PyImage{backend_call([&] { return r.image(denoise, o); })};
+          },
+          "denoise"_a = false, "denoiser"_a = "oidn", "quality"_a = "high", "oidn_library"_a = "")
+      .def(
+          "check_oidn",
+          [](Renderer&, const std::string& oidn_library) {
+            backend_call([&] {
+              DenoiseOptions o;
+              o.oidn_library = oidn_library;
+              check_denoise_choice("denoise=True", "cpu", o);
+              return 0;
+            });
+          },
+          "oidn_library"_a)
       .def("reset",
            [](Renderer& r) {
              backend_call([&] {

@@ -257,9 +257,12 @@ json Renderer::stats() const {
   return s;
 }
 
-std::shared_ptr<ImageData> Renderer::image(bool denoise) {
+std::shared_ptr<ImageData> Renderer::image(bool denoise, const DenoiseOptions& options) {
   std::lock_guard<std::recursive_mutex> lock(mutex_);
-  if (denoise) check_denoise_backend("denoise=True", backend(), note_);
+  if (denoise) {
+    check_denoise_choice("denoise=True", backend().name(), options);
+    check_denoise_backend("denoise=True", backend(), options, note_);
+  }
   auto img = std::make_shared<ImageData>();
   img->width = frame_.camera.width;
   img->height = frame_.camera.height;
@@ -283,7 +286,12 @@ std::shared_ptr<ImageData> Renderer::image(bool denoise) {
     const double guide_ms = seconds_since(t0) * 1e3;
     const float* rgb = img->rgb();
     double denoise_ms = 0;
-    img->denoised = denoise_image(backend(), std::vector<float>(rgb, rgb + img->count()), guides_, &denoise_ms);
+    std::string how;
+    size_t repaired = 0;
+    img->denoised = denoise_image(backend(), std::vector<float>(rgb, rgb + img->count()), guides_, options,
+                                  &denoise_ms, &how, &repaired);
+    img->stats["denoiser"] = how;
+    img->stats["denoise_repaired"] = repaired;
     img->albedo = guides_.albedo;
     img->normal = guides_.normal;
     img->stats["denoise_ms"] = denoise_ms;

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/backend.h"
+#include "render/denoise.h"
 #include "render/film.h"
 #include "scene/scene.h"
 
@@ -98,10 +99,10 @@ class Renderer {
   // the samples of completed calls (on the GPU: of completed launches) are kept.
   void render(uint32_t spp, const ProgressFn& progress);
   // A snapshot of the image; with `denoise`, also the image denoised by the
-  // OptiX AI denoiser and its guides (GPU backend only: else std::runtime_error
-  // with one line). The guides are rendered once per frame and kept until the
+  // options' denoiser and its guides (std::runtime_error with one line where it
+  // cannot run). The guides are rendered once per frame and kept until the
   // image starts over.
-  std::shared_ptr<ImageData> image(bool denoise = false);
+  std::shared_ptr<ImageData> image(bool denoise = false, const DenoiseOptions& options = {});
   void reset();
 
   uint64_t samples() const;

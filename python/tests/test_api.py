@@ -160,23 +160,27 @@ def test_dlpack_on_the_cpu_is_the_host_array():
     assert np.array_equal(np.from_dlpack(img.variance_dlpack()), img.variance)
 
 
-def test_denoise_needs_the_gpu_backend_and_says_so_before_rendering():
+def test_the_optix_denoiser_needs_the_gpu_backend_and_says_so_before_rendering():
     calls = []
-    with pytest.raises(penumbra.BackendError, match="denoising needs the GPU backend"):
-        penumbra.render("cornell-sphere", spp=4, denoise=True, backend="cpu",
+    with pytest.raises(penumbra.BackendError, match="the OptiX AI denoiser needs the GPU backend"):
+        penumbra.render("cornell-sphere", spp=4, denoise=True, denoiser="optix", backend="cpu",
                         progress=lambda done, total: calls.append(done), **SMALL)
     assert calls == []  # refused before any sample was traced
     r = penumbra.Renderer("cornell-sphere", backend="cpu", **SMALL)
     img = r.render(2)
     assert img.denoised is None and img.albedo is None and img.normal is None
-    with pytest.raises(penumbra.BackendError, match="denoising needs the GPU backend"):
-        r.image(denoise=True)
+    with pytest.raises(penumbra.BackendError, match="the OptiX AI denoiser needs the GPU backend"):
+        r.image(denoise=True, denoiser="optix")
+    with pytest.raises(ValueError, match="denoiser must be one of oidn, optix"):
+        r.image(denoise=True, denoiser="nlm")
+    with pytest.raises(ValueError, match="denoise_quality must be one of"):
+        penumbra.render("cornell-sphere", spp=1, denoise=True, denoise_quality="best", backend="cpu", **SMALL)
     if penumbra.build_info()["gpu_available"]:
         return
     # auto falls back to the CPU here: the same error, naming why
     calls.clear()
     with pytest.raises(penumbra.BackendError, match="rendered on the cpu backend"):
-        penumbra.render("cornell-sphere", spp=4, denoise=True, backend="auto",
+        penumbra.render("cornell-sphere", spp=4, denoise=True, denoiser="optix", backend="auto",
                         progress=lambda done, total: calls.append(done), **SMALL)
     assert calls == []
 

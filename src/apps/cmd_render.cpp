@@ -36,7 +36,8 @@ struct RenderArgs {
   int threads = 0;
   float exposure = 0.f;
   bool stats = false;
-  bool denoise = false;  // also <name>_denoised.<ext> (GPU backend)
+  bool denoise = false;  // also <name>_denoised.<ext>
+  DenoiseArgs denoiser;
   bool aov = false;      // also <name>_albedo.exr and <name>_normal.exr (the denoiser's guides)
   std::vector<std::string> sets;
 };
@@ -104,8 +105,11 @@ int run_render(const RenderArgs& a) {
   }
   const std::string denoised = sibling_output(out, "_denoised");
   const std::string albedo = sibling_output(out, "_albedo", ".exr"), normal = sibling_output(out, "_normal", ".exr");
+  DenoiseOptions denoise;
+  std::string oidn_found;
   if (a.denoise) {
-    check_denoise_choice("--denoise", a.backend);
+    denoise = denoise_options(a.denoiser, &oidn_found);
+    check_denoise_choice("--denoise", a.backend, denoise);
     check_output_file(denoised, "--denoise");
     outputs.push_back({"--denoise", denoised});
   }
@@ -145,7 +149,7 @@ int run_render(const RenderArgs& a) {
   opts.traversal = a.traversal;
   std::string note;
   std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
-  if (a.denoise) check_denoise_backend("--denoise", *backend, note);  // one line: the note goes into it
+  if (a.denoise) check_denoise_backend("--denoise", *backend, denoise, note);  // one line: the note goes into it
   std::fprintf(stderr, "%s\n", note.c_str());
 
   std::fprintf(stderr, "%s: %dx%d, %d spp, strategy %s, MIS %s, light selection %s, max depth %d, seed %u\n",
@@ -169,10 +173,14 @@ int run_render(const RenderArgs& a) {
     const FrameSpec frame = frame_spec(scene);
     DenoisedImage d;
     if (a.denoise) {
-      d = denoise_render(*backend, frame, film.mean());
+      d = denoise_render(*backend, frame, film.mean(), denoise);
       release_denoisers();  // its GPU memory, before the process ends
-      std::fprintf(stderr, "denoised: guides %.1f ms (%u rays a pixel), OptiX denoiser %.1f ms GPU; writing %s\n",
-                   d.guide_ms, kGuideSamples, d.denoise_ms, denoised.c_str());
+      if (d.repaired)
+        std::fprintf(stderr, "warning: %zu values of the image were not finite: 0 before denoising\n", d.repaired);
+      std::fprintf(stderr, "denoised: guides %.1f ms (%u rays a pixel), %s%s %.1f ms; writing %s\n", d.guide_ms,
+                   kGuideSamples, d.how.c_str(),
+                   denoise.denoiser == DenoiserKind::Oidn ? (" (library from " + oidn_found + ")").c_str() : "",
+                   d.denoise_ms, denoised.c_str());
       write_image(denoised, r.width, r.height, d.rgb, a.exposure);
     } else {
       d.guides = backend->render_guides(frame, kGuideSamples);
@@ -243,7 +251,9 @@ Command add_render_command(CLI::App& app) {
       ->check(image_path_check());
   sub->add_flag("--stats", a->stats, "Print scene and timing statistics");
   sub->add_flag("--denoise", a->denoise,
-                "Also write <output>_denoised.<ext>: the OptiX AI denoiser, albedo and normal guides (GPU backend)");
+                "Also write <output>_denoised.<ext>: denoised with albedo and normal guides (--denoiser: Intel Open "
+                "Image Denoise by default, on every backend)");
+  add_denoise_options(sub, &a->denoiser);
   sub->add_flag("--aov", a->aov, "Also write the denoiser's guides, <output>_albedo.exr and <output>_normal.exr");
   return {sub, [a]() { return run_render(*a); }};
 }

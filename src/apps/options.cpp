@@ -1,7 +1,9 @@
 #include "apps/options.h"
 
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <functional>
 #include <sstream>
 #include <stdexcept>
@@ -9,6 +11,7 @@
 #include "core/integrator.h"
 #include "io/image.h"
 #include "render/backend.h"
+#include "render/denoise.h"
 #include "scene/scene.h"
 
 namespace pn {
@@ -163,6 +166,60 @@ void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversa
                   "traversal) or auto (optix where the GPU has RT cores, else cuda; one line says which)")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "optix", "cuda"}));
+}
+
+void add_denoise_options(CLI::App* sub, DenoiseArgs* a) {
+  sub->add_option("--denoiser", a->denoiser,
+                  "With --denoise: oidn (Intel Open Image Denoise, on every backend: its CPU device for the CPU "
+                  "backend, its CUDA device on the GPU) or optix (the OptiX AI denoiser, GPU backend, where the "
+                  "driver's weights file exists)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"oidn", "optix"}));
+  sub->add_option("--denoise-quality", a->quality, "With --denoiser oidn: fast, balanced or high")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"fast", "balanced", "high"}));
+  sub->add_flag("--denoise-clean-aux", a->clean_aux,
+                "With --denoiser oidn: take the albedo and normal guides as noise-free (OIDN's cleanAux)");
+  sub->add_option("--oidn-library", a->oidn_library,
+                  "Path of libOpenImageDenoise.so.2 (default: the PyPI package pyoidn's, found through python3, "
+                  "else the system's)")
+      ->check(CLI::ExistingFile);
+}
+
+std::string find_oidn_library(const std::string& explicit_path, std::string* how) {
+  if (!explicit_path.empty()) {
+    if (how) *how = "--oidn-library";
+    return explicit_path;
+  }
+  // pyoidn (PyPI) ships OIDN's libraries in <package>/oidn/lib.
+  const char* ask =
+      "python3 -c \"import importlib.util as u, os; s = u.find_spec('pyoidn'); "
+      "print(os.path.join(os.path.dirname(s.origin), 'oidn', 'lib', 'libOpenImageDenoise.so.2') if s else '')\" "
+      "2>/dev/null";
+  if (FILE* p = popen(ask, "r")) {
+    char line[4096] = {0};
+    const bool got = std::fgets(line, sizeof line, p) != nullptr;
+    pclose(p);
+    std::string path = got ? line : "";
+    while (!path.empty() && (path.back() == '\n' || path.back() == '\r')) path.pop_back();
+    if (!path.empty() && std::ifstream(path).good()) {
+      if (how) *how = "the Python package pyoidn";
+      return path;
+    }
+  }
+  if (how) *how = "the system's library path";
+  return "";
+}
+
+DenoiseOptions denoise_options(const DenoiseArgs& a, std::string* how) {
+  DenoiseOptions o;
+  o.denoiser = a.denoiser == "optix" ? DenoiserKind::Optix : DenoiserKind::Oidn;
+  o.quality = a.quality == "fast" ? DenoiseQuality::Fast
+              : a.quality == "balanced" ? DenoiseQuality::Balanced
+                                        : DenoiseQuality::High;
+  o.clean_aux = a.clean_aux;
+  if (o.denoiser == DenoiserKind::Oidn) o.oidn_library = find_oidn_library(a.oidn_library, how);
+  return o;
 }
 
 void add_gpus_option(CLI::App* sub, std::string* gpus) {

@@ -38,6 +38,23 @@ void add_gpus_option(CLI::App* sub, std::string* gpus);
 // (BackendOptions::wavefront, ::traversal; backends/optix/WAVEFRONT.md). The cpu backend ignores them.
 void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal);
 
+// --denoiser, --denoise-quality, --denoise-clean-aux and --oidn-library (render, view): which denoiser
+// --denoise uses and how (render/denoise.h). The choices as the command line gave them; denoise_options()
+// turns them into DenoiseOptions, finding Intel Open Image Denoise's library.
+struct DenoiseArgs {
+  std::string denoiser = "oidn", quality = "high", oidn_library;
+  bool clean_aux = false;
+};
+void add_denoise_options(CLI::App* sub, DenoiseArgs* a);
+
+// Where libOpenImageDenoise is: `explicit_path` where given; else the PyPI wheel pyoidn's copy, found by asking
+// python3 where pyoidn is; else "" (the system's library path, by soname). *how says which.
+std::string find_oidn_library(const std::string& explicit_path, std::string* how = nullptr);
+
+struct DenoiseOptions;
+// The options for render/denoise.h; *how: where OIDN's library was found (find_oidn_library).
+DenoiseOptions denoise_options(const DenoiseArgs& a, std::string* how = nullptr);
+
 // "none, balance, power: what each does" lines for --help.
 std::string mis_help();
 

@@ -34,6 +34,7 @@
 #include "io/image.h"
 #include "io/output.h"
 #include "render/backend.h"
+#include "apps/options.h"
 #include "render/denoise.h"
 #include "scene/scene.h"
 
@@ -217,7 +218,7 @@ class Viewer {
   bool panel_ = true;
   bool fly_ = false;
   // Denoise toggle (N, the panel): the screen shows the composed image denoised
-  // by the OptiX AI denoiser, with guides rendered once per restart.
+  // by Intel Open Image Denoise, with guides rendered once per restart.
   bool denoise_ = false;
   FrameSpec guide_frame_;
   GuideImages guides_;
@@ -801,8 +802,7 @@ void Viewer::draw_panel() {
   ImGui::SliderFloat("resolution", &scale_, 0.05f, 2.f, "x %.2f", ImGuiSliderFlags_Logarithmic);
   ImGui::Checkbox("denoise (N)", &denoise_);
   ImGui::SameLine();
-  ImGui::TextDisabled(backend_->name() == "optix" ? "OptiX AI denoiser, albedo + normal guides"
-                                                  : "needs the GPU backend");
+  ImGui::TextDisabled("Intel Open Image Denoise, albedo + normal guides");
 
   if (ImGui::CollapsingHeader("Split screen", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::Checkbox("split", &split_);
@@ -890,13 +890,15 @@ void Viewer::draw_overlay() {
 // The denoise toggle: this frame's composed image, denoised, tone-mapped on the
 // host and uploaded (the host path also under interop: the denoiser's output is
 // a host image). False, and the toggle off with a status line, where it cannot
-// run (the CPU backend: one line saying it needs the GPU backend).
+// run (Intel Open Image Denoise not installed: one line saying how to get it).
 bool Viewer::show_denoised() {
   try {
-    check_denoise_backend("denoise", *backend_);
+    // Intel Open Image Denoise (render/denoise.h), its library found once (apps/options.h).
+    static const DenoiseOptions options = denoise_options(DenoiseArgs{});
+    check_denoise_backend("denoise", *backend_, options);
     if (guides_.width != applied_.width || guides_.height != applied_.height)
       guides_ = backend_->render_guides(guide_frame_, kGuideSamples);
-    const std::vector<float> rgb = denoise_image(*backend_, composed_mean(), guides_);
+    const std::vector<float> rgb = denoise_image(*backend_, composed_mean(), guides_, options);
     const DisplayPixels px = display_->host_pixels();
     const float gain = std::exp2(exposure_);
     for (int y = 0; y < px.height; ++y) {
