@@ -220,6 +220,8 @@ class Viewer {
   // Denoise toggle (N, the panel): the screen shows the composed image denoised
   // by Intel Open Image Denoise, with guides rendered once per restart.
   bool denoise_ = false;
+  double denoise_ms_ = 0;  // the last frame's denoiser time (host clock around the filter)
+  std::string denoiser_;   // which denoiser ran, on which device
   FrameSpec guide_frame_;
   GuideImages guides_;
   float fly_speed_ = 1.f;  // scene units per second
@@ -802,7 +804,10 @@ void Viewer::draw_panel() {
   ImGui::SliderFloat("resolution", &scale_, 0.05f, 2.f, "x %.2f", ImGuiSliderFlags_Logarithmic);
   ImGui::Checkbox("denoise (N)", &denoise_);
   ImGui::SameLine();
-  ImGui::TextDisabled("Intel Open Image Denoise, albedo + normal guides");
+  if (denoise_ && !denoiser_.empty())
+    ImGui::TextDisabled("%s: %.1f ms a frame", denoiser_.c_str(), denoise_ms_);
+  else
+    ImGui::TextDisabled("Intel Open Image Denoise, albedo + normal guides");
 
   if (ImGui::CollapsingHeader("Split screen", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::Checkbox("split", &split_);
@@ -898,7 +903,8 @@ bool Viewer::show_denoised() {
     check_denoise_backend("denoise", *backend_, options);
     if (guides_.width != applied_.width || guides_.height != applied_.height)
       guides_ = backend_->render_guides(guide_frame_, kGuideSamples);
-    const std::vector<float> rgb = denoise_image(*backend_, composed_mean(), guides_, options);
+    const std::vector<float> rgb =
+        denoise_image(*backend_, composed_mean(), guides_, options, &denoise_ms_, &denoiser_);
     const DisplayPixels px = display_->host_pixels();
     const float gain = std::exp2(exposure_);
     for (int y = 0; y < px.height; ++y) {
