@@ -6,7 +6,8 @@ side by side.
 
     python3 scripts/anchors/mitsuba_anchor.py cornell-sphere --spp 256 --width 160 --height 90 [--variant scalar_rgb]
 
-Exported: quads, boxes (rotate_y) and spheres with Lambertian materials (`albedo`), sphere and quad lights
+Exported: quads, boxes (rotate_y) and spheres with Lambertian materials (`albedo`), shared quad and box meshes
+placed by translations (instances), sphere and quad lights
 (`radiance` or `power`), the camera (vertical field of view) and the box pixel filter, and max_depth (penumbra
 counts bounces, Mitsuba path vertices: +1). A scene with anything else (meshes from files, textures, glossy
 materials, an environment, scattered lights) is refused in one line naming the field. Mitsuba's BSDFs are one-sided,
@@ -45,7 +46,7 @@ def radiance(light):
 def export(doc, spp, seed, mi):
     """The Mitsuba scene dict of a penumbra scene document (Scene.to_dict())."""
     T = mi.ScalarTransform4f
-    allowed_top = {"background", "camera", "lights", "materials", "render", "shapes"}
+    allowed_top = {"background", "camera", "lights", "materials", "meshes", "render", "shapes"}
     for k in doc:
         if k not in allowed_top:
             fail(f"field '{k}': not exported (quads, boxes, spheres, sphere and quad lights only)")
@@ -78,9 +79,28 @@ def export(doc, spp, seed, mi):
                       "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
                       "film": {"type": "hdrfilm", "width": int(r["width"]), "height": int(r["height"]),
                                "rfilter": {"type": "box"}, "pixel_format": "rgb"}}}
+    meshes = doc.get("meshes", {})
+    for name, m in meshes.items():
+        if m["type"] not in ("quad", "box"):
+            fail(f"meshes.{name}.type '{m['type']}': not exported (quad, box)")
+    shapes = []
     for i, s in enumerate(doc.get("shapes", [])):
+        if s["type"] == "instance":  # a shared quad or box moved by a translation
+            t = s.get("transform", {})
+            if set(t) - {"translate"}:
+                fail(f"shapes[{i}].transform: only 'translate' is exported")
+            d = np.array(t.get("translate", [0, 0, 0]), float)
+            m = dict(meshes[s["mesh"]], material=s.get("material"))
+            if m["type"] == "quad":
+                m["corner"] = (np.array(m["corner"], float) + d).tolist()
+            else:
+                m["center"] = (np.array(m["center"], float) + d).tolist()
+            shapes.append(m)
+        else:
+            shapes.append(s)
+    for i, s in enumerate(shapes):
         t = s["type"]
-        bsdf = mats[s["material"]] if "material" in s else black
+        bsdf = mats[s["material"]] if s.get("material") else black
         if t == "quad":
             out[f"shape{i}"] = {"type": "rectangle", "to_world": quad_transform(s["corner"], s["edge1"], s["edge2"]),
                                 "bsdf": bsdf}
@@ -123,7 +143,8 @@ def main():
     ap.add_argument("--max-depth", type=int, help="default: the scene's")
     ap.add_argument("--variant", default="scalar_rgb", help="Mitsuba variant: scalar_rgb, llvm_ad_rgb, cuda_ad_rgb")
     ap.add_argument("--backend", default="cpu", help="penumbra's backend: cpu, optix or auto")
-    ap.add_argument("--out", help="folder for both renderers' mean images (.npy) and a report line (anchor.md)")
+    ap.add_argument("--out", help="folder whose anchor.md gets the result line (appended)")
+    ap.add_argument("--save-images", action="store_true", help="also write both renderers' mean images to --out (.npy)")
     a = ap.parse_args()
     if a.spp < 1 or a.seeds < 3 or a.width < 8 or a.height < 8:
         fail("--spp >= 1, --seeds >= 3, --width and --height >= 8")
@@ -184,8 +205,9 @@ def main():
     print(line)
     if a.out:
         os.makedirs(a.out, exist_ok=True)
-        np.save(os.path.join(a.out, f"{a.scene}_penumbra.npy"), pn_imgs.mean(0).astype(np.float32))
-        np.save(os.path.join(a.out, f"{a.scene}_mitsuba.npy"), mi_imgs.mean(0).astype(np.float32))
+        if a.save_images:
+            np.save(os.path.join(a.out, f"{a.scene}_penumbra.npy"), pn_imgs.mean(0).astype(np.float32))
+            np.save(os.path.join(a.out, f"{a.scene}_mitsuba.npy"), mi_imgs.mean(0).astype(np.float32))
         with open(os.path.join(a.out, "anchor.md"), "a") as f:
             f.write(f"- {line}\n")
     # The seeds' variances are rough (and heavy-tailed at a lamp's edge): the tiles' verdict is their tail, as
