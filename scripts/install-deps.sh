@@ -40,10 +40,11 @@ fi
 # ray runs the study on a cluster (study.py --executor ray, docs/cluster.md; the test
 # study_ray; about 240 MB); pyoidn ships Intel Open Image Denoise's libraries, which
 # `--denoise` loads at run time (render/oidn.h; about 170 MB); mitsuba is the peer
-# renderer scripts/anchors/mitsuba_anchor.py compares with (about 210 MB).
+# renderer scripts/anchors/mitsuba_anchor.py compares with (about 210 MB); scikit-image
+# gives the denoising study its SSIM (study.py --part denoise).
 py_missing=()
 for m in numpy:numpy matplotlib:matplotlib nanobind:nanobind scikit_build_core:scikit-build-core pytest:pytest ray:ray \
-         pyoidn:pyoidn mitsuba:mitsuba; do
+         pyoidn:pyoidn mitsuba:mitsuba skimage:scikit-image; do
   python3 -c "import ${m%%:*}" >/dev/null 2>&1 || py_missing+=("${m#*:}")
 done
 if [ ${#py_missing[@]} -gt 0 ]; then

@@ -1409,6 +1409,23 @@ DENOISE_TECHNIQUES = [("area", "none"), ("area", "power"), ("solid-angle", "none
                       ("projected-solid-angle", "none"), ("projected-solid-angle", "power"), ("bsdf", "none")]
 # The thesis's scenes, a polygon light near a wall, glossy reflections of a sun, and many lights.
 DENOISE_SCENES = HEADLINE + ["polygon-near", "glossy", "many-spheres"]
+# On many-spheres also solid-angle + MIS power with each way of choosing a light: does restir's correlated noise
+# (neighbours' samples reused) denoise worse than independent noise? SSIM beside RMSE shows blotches.
+DENOISE_SELECTIONS = {"many-spheres": ["bvh", "restir"]}
+
+
+def ssim(a, b):
+    """Structural similarity of two linear images (H, W, 3) after the same tone map (x / (1 + x), sRGB-like gamma),
+    by scikit-image (Wang et al. 2004, 7x7 windows); None where scikit-image is not installed."""
+    try:
+        from skimage.metrics import structural_similarity
+    except ImportError:
+        return None
+    import numpy as np
+    def tone(x):
+        x = np.maximum(np.asarray(x, np.float64), 0.0)
+        return (x / (1.0 + x)) ** (1 / 2.2)
+    return float(structural_similarity(tone(a), tone(b), channel_axis=2, data_range=1.0))
 
 
 def denoise_name(strategy, mis):
@@ -1462,21 +1479,28 @@ def denoise_measure(args, cfg, scenes):
         def rmse(img, mask=None):
             d2 = (np.asarray(img, np.float64) - ref) ** 2
             return float(np.sqrt(np.mean(d2) if mask is None else (d2 * mask).sum() / (3 * mask.sum())))
-        r = penumbra.Renderer(scene, backend=args.backend, gpus=args.gpus, width=cfg["width"], height=cfg["height"])
-        for strategy, mis in DENOISE_TECHNIQUES:
+        runs = [(strategy, mis, None) for strategy, mis in DENOISE_TECHNIQUES]
+        runs += [("solid-angle", "power", sel) for sel in DENOISE_SELECTIONS.get(scene, [])]
+        for strategy, mis, selection in runs:
+            name = denoise_name(strategy, mis) + (f"/{selection}" if selection else "")
+            overrides = {"render.light_selection": selection} if selection else None
+            r = penumbra.Renderer(scene, backend=args.backend, gpus=args.gpus, width=cfg["width"],
+                                  height=cfg["height"], overrides=overrides)
             for seed in range(cfg["seeds"]):
                 r.set(strategy=strategy, mis=mis, seed=seed + 1)  # frame settings: the backend stays
                 for spp in spps:
                     r.render(spp - r.spp)
                     img = r.image(denoise=True)
                     meta = dict(device=img.stats["device"], guide_samples=img.stats.get("guide_samples"),
-                                denoiser=img.stats.get("denoiser", "?"), git_commit=img.stats.get("git_commit"))
-                    rows.append(dict(scene=scene, technique=denoise_name(strategy, mis), spp=spp, seed=seed + 1,
+                                denoiser=img.stats.get("denoiser", "?"))
+                    rows.append(dict(scene=scene, technique=name, spp=spp, seed=seed + 1,
                                      rmse_raw=rmse(img.rgb), rmse_denoised=rmse(img.denoised),
                                      rmse_raw_nolight=rmse(img.rgb, keep),
                                      rmse_denoised_nolight=rmse(img.denoised, keep),
+                                     ssim_raw=ssim(img.rgb, ref), ssim_denoised=ssim(img.denoised, ref),
+                                     render_ms=img.stats.get("render_seconds", 0.0) * 1e3,
                                      denoise_ms=img.stats.get("denoise_ms", 0.0)))
-            log(f"study: denoise: {scene} {denoise_name(strategy, mis)}: 1..{spps[-1]} spp x {cfg['seeds']} seeds")
+            log(f"study: denoise: {scene} {name}: 1..{spps[-1]} spp x {cfg['seeds']} seeds")
     return rows, meta
 
 
@@ -1490,6 +1514,49 @@ def denoise_table(rows, suffix=""):
         d[1].append(r["rmse_denoised" + suffix])
     return {sc: {t: {spp: (sum(v[0]) / len(v[0]), sum(v[1]) / len(v[1])) for spp, v in sorted(ts.items())}
                  for t, ts in techs.items()} for sc, techs in acc.items()}
+
+
+def denoise_times(rows):
+    """{scene: {technique: {spp: mean render ms}}} over seeds (the image's cumulative render time)."""
+    acc = {}
+    for r in rows:
+        acc.setdefault(r["scene"], {}).setdefault(r["technique"], {}).setdefault(r["spp"], []).append(
+            r.get("render_ms", 0.0))
+    return {sc: {t: {spp: sum(v) / len(v) for spp, v in sorted(ts.items())} for t, ts in techs.items()}
+            for sc, techs in acc.items()}
+
+
+def at_time(points, t):
+    """log-log interpolation of [(time, rmse), ...] (increasing time) at time t; None outside the measured times."""
+    pts = [(a, b) for a, b in points if a > 0 and b > 0]
+    for (t0, r0), (t1, r1) in zip(pts, pts[1:]):
+        if t0 <= t <= t1:
+            if t1 == t0:
+                return r0
+            f = (math.log(t) - math.log(t0)) / (math.log(t1) - math.log(t0))
+            return math.exp(math.log(r0) + f * (math.log(r1) - math.log(r0)))
+    return None
+
+
+def denoise_equal_time(table, times, a="area", b="solid-angle"):
+    """{scene: {spp of a: (raw ratio, denoised ratio)}}: RMSE(a) / RMSE(b) at a's render time at that spp, b's RMSE
+    read off its own measured points (log-log); a point outside b's measured times is left out (never
+    extrapolated)."""
+    out = {}
+    for scene, ts in table.items():
+        if a not in ts or b not in ts:
+            continue
+        ta, tb = times[scene][a], times[scene][b]
+        row = {}
+        for spp in sorted(ts[a]):
+            t = ta[spp]
+            raw_b = at_time([(tb[s], ts[b][s][0]) for s in sorted(ts[b])], t)
+            den_b = at_time([(tb[s], ts[b][s][1]) for s in sorted(ts[b])], t)
+            if raw_b and den_b:
+                row[spp] = (ts[a][spp][0] / raw_b, ts[a][spp][1] / den_b)
+        if row:
+            out[scene] = row
+    return out
 
 
 def plot_denoise(table, path, title="RMSE before (dashed) and after (solid) denoising"):
@@ -1595,6 +1662,44 @@ def write_denoise_report(args, cfg, rows, out_dir, meta):
                 wins.append(f"{a} ({ts[a][4][1]:.3g}) beats " + ", ".join(f"{b} ({ts[b][hi][0]:.3g})" for b in beaten))
         w(f"- **{scene}**: " + ("; ".join(wins) if wins else "none") + ".")
     w("")
+    # Equal render time (pixels that see no light): area's image at each spp against solid-angle's at the same
+    # time, read off solid-angle's measured points.
+    times = denoise_times(rows)
+    eq = denoise_equal_time(table_nl, times)
+    if eq:
+        spps = sorted({spp for rs in eq.values() for spp in rs})
+        w("RMSE(area) / RMSE(solid-angle) at equal render time, pixels that see no light, raw / denoised (area's "
+          "time at each spp; solid-angle's RMSE at that time interpolated between its own measured points, a point "
+          "outside them left out; render time only, the denoiser's own time is the same for both):\n")
+        w("| scene | " + " | ".join(f"{spp} spp" for spp in spps) + " |")
+        w("| --- |" + " ---: |" * len(spps))
+        for scene, rs in eq.items():
+            w(f"| {scene} | " + " | ".join(f"{rs[spp][0]:.2f} / {rs[spp][1]:.2f}" if spp in rs else "n/a"
+                                           for spp in spps) + " |")
+        w("")
+    # Light selection on many-spheres, and whether restir's correlated noise denoises worse: RMSE and SSIM.
+    ssim_rows = [r for r in rows if "/" in r["technique"] or r["technique"] == "solid-angle+power"]
+    sel_scenes = sorted({r["scene"] for r in ssim_rows if "/" in r["technique"]})
+    for scene in sel_scenes:
+        rs = [r for r in ssim_rows if r["scene"] == scene]
+        techs = sorted({r["technique"] for r in rs}, key=lambda t: (t.count("/"), t))
+        spps = sorted({r["spp"] for r in rs})
+        def mean(t, spp, key):
+            v = [r[key] for r in rs if r["technique"] == t and r["spp"] == spp and r.get(key) is not None]
+            return sum(v) / len(v) if v else None
+        w(f"**{scene}**, solid-angle + MIS power by light selection (power, bvh, restir): RMSE without light pixels "
+          "and SSIM (scikit-image, after a tone map x / (1 + x) and gamma 2.2; 1 is the reference), raw / denoised:\n")
+        w("| spp | " + " | ".join(f"{t} RMSE | {t} SSIM" for t in techs) + " |")
+        w("| ---: |" + " ---: | ---: |" * len(techs))
+        for spp in spps:
+            cells = []
+            for t in techs:
+                r0, r1 = mean(t, spp, "rmse_raw_nolight"), mean(t, spp, "rmse_denoised_nolight")
+                s0, s1 = mean(t, spp, "ssim_raw"), mean(t, spp, "ssim_denoised")
+                cells.append(f"{fmt(r0, 3)} / {fmt(r1, 3)}")
+                cells.append("n/a" if s0 is None else f"{s0:.3f} / {s1:.3f}")
+            w(f"| {spp} | " + " | ".join(cells) + " |")
+        w("")
     for scene, rs in summary.get("without light pixels", {}).items():
         raw, den = [a for a, _ in rs.values()], [d for _, d in rs.values()]
         gain = [table_nl[scene]["area"][spp][0] / table_nl[scene]["area"][spp][1] for spp in sorted(rs)]

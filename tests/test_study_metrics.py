@@ -191,6 +191,31 @@ def test_denoise_ratios_are_area_over_solid_angle_at_equal_spp():
     assert study.denoise_ratios(no_sa) == {}
 
 
+def test_at_time_interpolates_in_log_log_and_never_extrapolates():
+    pts = [(1.0, 1.0), (4.0, 0.5), (16.0, 0.25)]  # RMSE = t^(-1/2)
+    assert study.at_time(pts, 2.0) == pytest.approx(2.0 ** -0.5)
+    assert study.at_time(pts, 9.0) == pytest.approx(1 / 3)
+    assert study.at_time(pts, 16.0) == pytest.approx(0.25)
+    assert study.at_time(pts, 0.5) is None and study.at_time(pts, 17.0) is None
+
+
+def test_denoise_equal_time_reads_solid_angle_at_area_s_time():
+    # area: RMSE 0.8 / sqrt(spp) raw, 0.4 / sqrt(spp) denoised, 1 ms a sample; solid-angle: 0.4 / sqrt(spp) raw,
+    # 0.1 / sqrt(spp) denoised, 2 ms a sample. At area's time t = spp ms, solid-angle has spp / 2 samples:
+    # raw ratio 0.8 / 0.4 / sqrt(2) = sqrt(2), denoised 0.4 / 0.1 / sqrt(2) = 2 sqrt(2); area's 1 spp (1 ms) is
+    # before solid-angle's first point (2 ms): left out.
+    spps = (1, 2, 4, 8)
+    table = {"s": {"area": {n: (0.8 / math.sqrt(n), 0.4 / math.sqrt(n)) for n in spps},
+                   "solid-angle": {n: (0.4 / math.sqrt(n), 0.1 / math.sqrt(n)) for n in spps}}}
+    times = {"s": {"area": {n: 1.0 * n for n in spps}, "solid-angle": {n: 2.0 * n for n in spps}}}
+    eq = study.denoise_equal_time(table, times)
+    assert set(eq["s"]) == {2, 4, 8}
+    for n in (2, 4, 8):
+        assert eq["s"][n] == pytest.approx((math.sqrt(2), 2 * math.sqrt(2)))
+    rows = [dict(scene="s", technique="area", spp=n, render_ms=t) for n, t in ((1, 1.0), (1, 3.0), (2, 4.0))]
+    assert study.denoise_times(rows) == {"s": {"area": {1: 2.0, 2: 4.0}}}
+
+
 def test_median_seed_slope(tmp_path):
     # Seeds 1 and 2 fall as 1 / sqrt(spp); seed 3 is stuck at 5 (a rare huge sample). Each spp's median is seed 2's,
     # 1.1 / sqrt(spp): slope -1/2 exactly (the mean over seeds would be far flatter).
