@@ -13,7 +13,7 @@ counts bounces, Mitsuba path vertices: +1). A scene with anything else (meshes f
 materials, an environment, scattered lights) is refused in one line naming the field. Mitsuba's BSDFs are one-sided,
 penumbra's Lambertian two-sided: every material is wrapped in `twosided`. Variants: scalar_rgb or llvm_ad_rgb on the
 CPU, cuda_ad_rgb on a GPU. Exit status 0 when the images agree (the image means within 4 standard errors, at most 1%
-of 8x8-pixel tiles beyond 4), 1 when they do not, 2 for bad input, 77 without Mitsuba.
+of 8x8-pixel tiles beyond 4), 1 when they do not, 2 for bad input, 77 without Mitsuba or penumbra's module.
 """
 import argparse
 import math
@@ -157,7 +157,12 @@ def main():
         mi.set_variant(a.variant)
     except Exception as e:  # noqa: BLE001 (Mitsuba raises several kinds)
         fail(f"--variant {a.variant}: {e}")
-    import penumbra
+    try:
+        import penumbra
+    except ImportError as e:
+        print(f"anchors/mitsuba: skipped: needs penumbra's Python module ({e}): pip install ., or "
+              "PYTHONPATH=build/python", file=sys.stderr)
+        sys.exit(77)
 
     overrides = {"render.width": a.width, "render.height": a.height}
     if a.max_depth is not None:
