@@ -104,7 +104,7 @@ def main():
     fault = os.path.join(args.work, "fault")
     os.makedirs(fault)
     out, cache = os.path.join(args.work, "out"), os.path.join(args.work, "cache")
-    cmd = [sys.executable, args.study, "--preset", "smoke", "--backend", "cpu", "--part", "thesis", "--check",
+    cmd = [sys.executable, args.study, "--preset", "smoke", "--backend", "cpu", "--allow-dirty", "--part", "thesis", "--check",
            "--keep-runs", "--executor", "ray", "--ray-cpus", "2", "--out", out, "--cache", cache]
     env = dict(os.environ, PENUMBRA_STUDY_FAULT=fault)
 

@@ -295,6 +295,14 @@ them without a copy to the host.)")
           "variance_dlpack", [](PyImage& i) { return dlpack_of(i, true); },
           "The variance of the mean as a DLPack-capable array (see rgb_dlpack)")
       .def(
+          "denoised_dlpack",
+          [](PyImage& i) -> nb::object {
+            const ImageData& img = *i.data;
+            if (img.denoised.empty()) return nb::none();
+            return nb::cast(image_array(img.denoised.data(), img, nb::find(&i), nb::device::cpu::value, 0));
+          },
+          "The denoised mean as a DLPack-capable array (on the host), None unless denoised")
+      .def(
           "__dlpack__",
           [](PyImage& i, nb::kwargs kwargs) -> nb::object {
             return nb::cast(dlpack_of(i, false)).attr("__dlpack__")(**kwargs);

@@ -43,3 +43,7 @@ def test_renderer_denoises_with_the_chosen_quality():
     assert "quality high" in high.stats["denoiser"]
     assert not np.array_equal(fast.denoised, high.denoised)  # two different networks
     assert np.array_equal(fast.rgb, high.rgb)  # the same samples
+    # DLPack: the denoised mean as an array-API object on the host, the same values, no copy.
+    d = np.from_dlpack(high.denoised_dlpack())
+    assert d.shape == (36, 64, 3) and np.array_equal(d, high.denoised) and np.shares_memory(d, high.denoised)
+    assert r.render(1).denoised_dlpack() is None
