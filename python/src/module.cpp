@@ -373,12 +373,7 @@ them without a copy to the host.)")
           "image",
           [](Renderer& r, bool denoise, const std::string& denoiser, const std::string& quality,
              const std::string& oidn_library) {
-            DenoiseOptions o;
-            o.denoiser = denoiser == "optix" ? DenoiserKind::Optix : DenoiserKind::Oidn;
-            o.quality = quality == "fast" ? DenoiseQuality::Fast
-                        : quality == "balanced" ? DenoiseQuality::Balanced
-                                                : DenoiseQuality::High;
-            o.oidn_library = oidn_library;
+            const DenoiseOptions o = make_denoise_options(denoiser, quality, false, oidn_library);
             return PyImage{backend_call([&] { return r.image(denoise, o); })};
           },
           "denoise"_a = false, "denoiser"_a = "oidn", "quality"_a = "high", "oidn_library"_a = "")

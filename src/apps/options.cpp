@@ -212,12 +212,7 @@ std::string find_oidn_library(const std::string& explicit_path, std::string* how
 }
 
 DenoiseOptions denoise_options(const DenoiseArgs& a, std::string* how) {
-  DenoiseOptions o;
-  o.denoiser = a.denoiser == "optix" ? DenoiserKind::Optix : DenoiserKind::Oidn;
-  o.quality = a.quality == "fast" ? DenoiseQuality::Fast
-              : a.quality == "balanced" ? DenoiseQuality::Balanced
-                                        : DenoiseQuality::High;
-  o.clean_aux = a.clean_aux;
+  DenoiseOptions o = make_denoise_options(a.denoiser, a.quality, a.clean_aux);
   if (o.denoiser == DenoiserKind::Oidn) o.oidn_library = find_oidn_library(a.oidn_library, how);
   return o;
 }

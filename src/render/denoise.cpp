@@ -16,6 +16,20 @@ namespace pn {
 
 const char* denoiser_name(DenoiserKind k) { return k == DenoiserKind::Oidn ? "oidn" : "optix"; }
 
+DenoiseOptions make_denoise_options(const std::string& denoiser, const std::string& quality, bool clean_aux,
+                                    const std::string& oidn_library) {
+  DenoiseOptions o;
+  if (denoiser == "optix") o.denoiser = DenoiserKind::Optix;
+  else if (denoiser != "oidn") throw std::invalid_argument("denoiser must be oidn or optix, not '" + denoiser + "'");
+  bool known = false;
+  for (DenoiseQuality q : {DenoiseQuality::Fast, DenoiseQuality::Balanced, DenoiseQuality::High})
+    if (quality == denoise_quality_name(q)) o.quality = q, known = true;
+  if (!known) throw std::invalid_argument("denoise quality must be fast, balanced or high, not '" + quality + "'");
+  o.clean_aux = clean_aux;
+  o.oidn_library = oidn_library;
+  return o;
+}
+
 namespace {
 
 // The CUDA device of the GPU backend `backend` (device 0's of a MultiBackend); 0 elsewhere.

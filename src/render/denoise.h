@@ -29,6 +29,12 @@ struct DenoiseOptions {
   bool clean_aux = false;    // OIDN's cleanAux (see OidnFilterOptions)
 };
 
+// The options from their names as the command line and Python give them:
+// denoiser "oidn" or "optix", quality "fast", "balanced" or "high"; another
+// name throws std::invalid_argument naming it.
+DenoiseOptions make_denoise_options(const std::string& denoiser, const std::string& quality, bool clean_aux = false,
+                                    const std::string& oidn_library = "");
+
 // Throws, with one line that starts with `what` ("--denoise", "denoise=True"),
 // when `backend_choice` ("cpu", "optix", "auto") can never denoise with the
 // options' denoiser: optix with "cpu" or in a build without the GPU backend;
