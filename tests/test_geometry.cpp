@@ -191,6 +191,7 @@ TEST(Geometry, RayOriginsLeaveTheSurfaceBarelyAndOnTheRightSide) {
 TEST(Geometry, InstanceTransformsKeepTheBound) {
   std::mt19937 g(5);
   std::uniform_real_distribution<float> u(-1.f, 1.f);
+  int tested = 0, clipped = 0;
   for (int i = 0; i < 50000; ++i) {
     const Triangle t = random_triangle(g);
     if (degenerate(t)) continue;
@@ -216,11 +217,18 @@ TEST(Geometry, InstanceTransformsKeepTheBound) {
     ASSERT_LE(std::fabs(p.y - exact_world.y), err.y) << i;
     ASSERT_LE(std::fabs(p.z - exact_world.z), err.z) << i;
     // The clearance, moved to world space, is still a lower bound on the world point's distance from the world
-    // triangle's edges.
+    // triangle's edges. Where the world point's rounding error is larger than the clearance the bound is clipped
+    // to 0: the rounded point may then lie outside the triangle, but by no more than that error.
     const D3 v[3] = {world(D3(t.p[0])), world(D3(t.p[1])), world(D3(t.p[2]))};
     ASSERT_GE(clearance, 0.f) << i;
-    ASSERT_LE(double(clearance), edge_distance(v, D3(p))) << i;
+    ++tested, clipped += clearance == 0.f;
+    if (clearance > 0.f)
+      ASSERT_LE(double(clearance), edge_distance(v, D3(p))) << i;
+    else
+      ASSERT_GE(edge_distance(v, D3(p)), -len(D3(err))) << i;
   }
+  EXPECT_GT(tested, 10000);
+  EXPECT_LT(clipped, tested / 10);  // about 2%: tiny triangles far out in the instance's space
 }
 
 TEST(Geometry, SphereHitsAreOnTheSphereAndOriginsOutside) {
