@@ -74,7 +74,7 @@ struct alignas(16) Light {
 static_assert(sizeof(Light) == 112, "Light is seven 16-byte words");
 
 // Light i, copied. On the GPU as seven 16-byte loads: the strategies read fields by type, and read through the
-// array a word at a time, several times (session 25's PTX: a run of 96 scalar loads at the switch on the type).
+// array a word at a time, several times (commit cf489d0's PTX: a run of 96 scalar loads at the switch on the type).
 PN_FN Light load_light(const Light* lights, uint32_t i) {
 #if defined(__CUDA_ARCH__)
   const float4* p = reinterpret_cast<const float4*>(lights + i);

@@ -86,7 +86,7 @@ PN_FN bool bvh_box_hit(const float* xy, float zlo, float zhi, const BvhRay& r, f
   const float z1 = bvh_plane_t<kFma>(zhi, r.o.z, r.inv_d.z, r.o_inv.z);
 #if defined(__CUDA_ARCH__)
   // Three-way integer max and min of the floats' bits, one instruction each on sm_90 (Aila and Laine's trick;
-  // session 25: Sponza's random rays 10% faster). The entry distance is clamped at 0, so a value that wins the
+  // commit cf489d0: Sponza's random rays 10% faster). The entry distance is clamped at 0, so a value that wins the
   // max is non-negative and orders as its bits do; the exit distance's min may take -0.f over a negative value,
   // which enters a box the float min would cull, never the other way round.
   const float tn = __int_as_float(__vimax3_s32_relu(__float_as_int(pn_min(x0, x1)), __float_as_int(pn_min(y0, y1)),
@@ -136,7 +136,7 @@ PN_FN void bvh_load_triangle(const BvhTriangle* tris, uint32_t i, Vec3* p0, Vec3
 #endif
 }
 
-// What a traversal does, step by step, for models of it (docs/results/h200-session27/analysis): node() at each
+// What a traversal does, step by step, for models of it (commit 45fdde8's docs/results, in git history): node() at each
 // inner node visited, leaf(n) at the end of each pass of the loop below (n: the triangles tested there, 1 for a
 // top-level item, 0 where the pass found no leaf). The default does nothing and compiles to nothing.
 struct BvhNoSteps {

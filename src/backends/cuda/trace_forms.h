@@ -23,8 +23,8 @@ struct CudaTraceForms {
   int shadow = 0;
   std::string reason;  // "if-if loop (auto: rays visit 46.4 nodes, at least 24), flat scene, FMA box test for ..."
 };
-// Measured on the H200 (session 30, docs/results/h200-session30): random rays in Sponza (46 visits) with the
-// flat form, while-while -> if-if, ms for 4.2M closest / shadow 1.62 / 1.52 -> 1.42 / 1.26; in cornell-sphere
+// Measured on the H200 (commit 62b61c2; its docs/results are in git history): random rays in Sponza (46 visits)
+// with the flat form, while-while -> if-if, ms for 4.2M closest / shadow 1.62 / 1.52 -> 1.42 / 1.26; in cornell-sphere
 // (9.4 visits) 0.62 / 0.36 -> 0.66 / 0.40. The FMA box test for shadow rays: Sponza 1.63 -> 1.52 (while-while),
 // cornell-sphere 0.385 -> 0.363; in the general form it spills, and occlusion and bunnies lost 2% at 1080p.
 constexpr double kIfIfMinVisits = 24.0;

@@ -110,7 +110,7 @@ PN_FN void queue_order_count(const QueueOrder& o, uint32_t k, uint32_t c) {
   o.cell[k] = c;
 #if defined(__CUDA_ARCH__)
   // One atomic per cell a warp: lanes of one warp often share a cell, and one atomic a lane, queued on the few
-  // cells around a small light's direction, was part of what the first form cost (cornell-sphere, session 28).
+  // cells around a small light's direction, was part of what the first form cost (cornell-sphere, commit a01e762).
   const unsigned peers = __match_any_sync(__activemask(), c);
   const int lane = int(threadIdx.x & 31u), leader = __ffs(int(peers)) - 1;
   uint32_t first = 0;
@@ -143,13 +143,13 @@ PN_FN uint32_t octahedral_cell(Vec3 d, uint32_t bits) {
   return iu << bits | iv;  // a NaN direction lands in cell 0
 }
 
-// The shadow queue in the order of its rays' directions (session 28): shadow rays end on the lights, so rays of
+// The shadow queue in the order of its rays' directions (commit a01e762): shadow rays end on the lights, so rays of
 // nearly one direction toward one light run along nearly one line and traverse nearly the same nodes, where rays
 // in queue order (their paths' order: scattered shading points after the first bounce) share little. shade
 // counts each query into its direction's cell.
 constexpr uint32_t kShadowCellBits = 7;  // 128 x 128 octahedral cells of the sphere of directions
 // The queries of vertices from this depth on are ordered: the camera's hits are in pixel order, whose shadow rays
-// are coherent already (its cost is then not paid back: session 28, cornell-sphere).
+// are coherent already (its cost is then not paid back: commit a01e762, cornell-sphere).
 constexpr int kShadowOrderDepth = 1;
 constexpr uint32_t kShadowCells = 1u << (2 * kShadowCellBits);
 struct ShadowOrder : QueueOrder {
@@ -158,11 +158,11 @@ struct ShadowOrder : QueueOrder {
 
 PN_FN uint32_t shadow_direction_cell(Vec3 d) { return octahedral_cell(d, kShadowCellBits); }
 
-// The closest-hit rays of the bounces in the order of their directions, then their origins (session 29): the
+// The closest-hit rays of the bounces in the order of their directions, then their origins (commit a6913f3): the
 // rays shade makes go from scattered shading points in directions the BSDFs draw, so a warp's rays in queue order
 // share few nodes; grouped by direction (8 x 8 octahedral cells) and, within one, by where they start (a Morton
 // order of 8 x 8 x 8 cells of the scene's box), they share more: a model of the warps' lock step put the work
-// issued on Sponza's first two bounces at 1080p 19% lower (docs/results/h200-session29/analysis), and the H200
+// issued on Sponza's first two bounces at 1080p 19% lower (commit a6913f3's docs/results, in git history), and the H200
 // traced them 16% faster (its closest hits 5.13 -> 4.35 ms a sample; counting, scanning and placing cost 0.37).
 // Finer keys would save more (16 x 16 directions: 23%) but need a scan of 2^17 cells and more. The camera's rays
 // stay in pixel order, coherent already. Only the tracing follows the order: shade reads its queue in queue
@@ -237,7 +237,7 @@ inline bool choose_order(bool able, const char* unable, OrderMode mode, const ch
 
 // The same shadow segment traced from its far end (on the light) back toward the shading point: ordered by
 // direction, rays toward one light then also start together, and share the nodes around the light first
-// (session 28: Sponza's shadow stage 1.79 -> 1.55 ms a sample on the H200, after the order's 2.68 -> 1.79).
+// (commit a01e762: Sponza's shadow stage 1.79 -> 1.55 ms a sample on the H200, after the order's 2.68 -> 1.79).
 // It stops short of the origin by a slack that covers the rounding of the far end (1e-5 of the coordinates'
 // magnitude, about 80 ulps), so that the ray does not find the surface it was sent from; occluders closer than
 // that to the shading point are not seen, as the forward ray sees none within kShadowEpsilon of the light.
@@ -299,7 +299,7 @@ PN_FN uint64_t wavefront_bytes(uint32_t capacity) {
 // --- 32-byte records -------------------------------------------------------------------------------------------
 
 // TraceRay and PrevVertex move as two 16-byte accesses on the GPU. Copied as structs of Vec3s they moved a
-// float at a time: eight 4-byte accesses, each spanning its warp's 1 KiB (ncu, session 25: three quarters of the
+// float at a time: eight 4-byte accesses, each spanning its warp's 1 KiB (ncu, commit cf489d0: three quarters of the
 // shade kernel's L2 sectors were excess ones of these).
 static_assert(sizeof(PrevVertex) == 32 && offsetof(PrevVertex, bsdf_pdf) == 24 &&
                   offsetof(PrevVertex, light_candidates) == 28,
@@ -464,7 +464,7 @@ PN_FN void begin_bounce(const WavefrontView& w, int next) {
 // Ray j of ray queue `cur`, its closest hit known: on_hit or on_miss; the light sample's shadow query (if any)
 // to the shadow queue, the next ray (if the path goes on) to ray queue cur ^ 1. Inlined whole into the shading
 // kernel, on_miss (PN_FN) and on_hit (one call site) with it: as calls, the path state lived in local memory
-// (session 29, H200: Sponza's shading 2.74 -> 2.37 ms a 1080p sample, the same image bit for bit).
+// (commit a6913f3, H200: Sponza's shading 2.74 -> 2.37 ms a 1080p sample, the same image bit for bit).
 template <uint32_t kFeatures = kAllFeatures>
 PN_FN void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& scene, const IntegratorSettings& s) {
   const RayQueue& in = w.ray[cur];

@@ -120,13 +120,13 @@ __global__ void __launch_bounds__(kBlock) orders_place_kernel(int next, bool ray
 
 // Two resident blocks per SM: at most 128 registers a thread (the shading alone would take 181 and leave one
 // block of 8 warps per SM). Measured on the H200 (bench, 1080p, solid-angle): cornell-sphere 2.71 -> 2.59 ms,
-// sponza 13.47 -> 13.07 ms a sample. Three blocks (80 registers, 1.9 KB of spill stores) lost (session 29:
+// sponza 13.47 -> 13.07 ms a sample. Three blocks (80 registers, 1.9 KB of spill stores) lost (commit a6913f3:
 // cornell-sphere 1.86 -> 2.38, sponza 9.35 -> 10.34).
 //
 // Each kernel is compiled for one integrator configuration where lights are chosen simply (uniformly or by power):
 // its strategy, and MIS off or on (balance or power), are constants, so the code of every other strategy, of the
 // light BVH and restir, and of MIS where it is off, is not there to take registers. Sponza's shading kernel spilled
-// 572 bytes a thread; compiled for solid-angle without MIS, 152 (session 29, H200: Sponza's shading 2.47 -> 1.76 ms
+// 572 bytes a thread; compiled for solid-angle without MIS, 152 (commit a6913f3, H200: Sponza's shading 2.47 -> 1.76 ms
 // a sample; sponza 8.82 -> 8.11 ms, cornell-sphere 1.84 -> 1.69, with MIS 9.28 -> 8.53 and 1.98 -> 1.83). Other
 // configurations (the light BVH, restir) take the kernel compiled for any (kAnyStrategy). 24 kernels: this file
 // compiles in about a minute.

@@ -150,8 +150,9 @@ class WavefrontGpu {
 };
 
 // Where PENUMBRA_SHADOW_ORDER is auto (its default), the shadow queries are ordered by direction when rays in the
-// scene visit at least this many nodes (BvhStats::sah_visits_per_ray). Measured on the H200 (session 28,
-// docs/results/h200-session28), ms a 1080p sample, queue -> direction order: sponza (46 visits) 10.56 -> 9.70,
+// scene visit at least this many nodes (BvhStats::sah_visits_per_ray). Measured on the H200 (commit
+// a01e762; its docs/results are in git history), ms a 1080p sample, queue -> direction order: sponza (46 visits)
+// 10.56 -> 9.70,
 // sponza-lanterns (50) 12.81 -> 12.11; cornell-sphere (9.4) 1.94 -> 2.09, glossy (2) +3%, bunnies (14) +0.4%,
 // many-spheres (18, many lights) +2%; occlusion (16) -7%, a gain this rule misses.
 constexpr double kShadowOrderMinVisits = 24.0;

@@ -1,6 +1,0 @@
-#!/usr/bin/env bash
-# From the repository root, after the README's build: the measurements of README.md here (CPU, about 15 minutes on 2 cores).
-for v in "power:render.light_selection=power" "bvh:render.light_selection=bvh" "ris32:render.light_selection=restir,render.restir.candidates=32,render.restir.spatial_passes=0" "ris1024:render.light_selection=restir,render.restir.candidates=1024,render.restir.spatial_passes=0" "restir:render.light_selection=restir,render.restir.pairwise=true"; do name=${v%%:*}; sets=(); IFS=, read -r -a ex <<<"${v#*:}"; for e in "${ex[@]}"; do sets+=(--set "$e"); done; build/penumbra converge many-spheres --backend cpu --out docs/results/many-lights/cpu-selection-ceiling/$name --width 480 --height 270 --reference-spp 256 --max-spp 4 --seeds 1 --strategies solid-angle --mis power --cache /tmp/penumbra-cache --set defaults.lights=10000 --set render.max_depth=1 "${sets[@]}" --yes 2>&1 | grep -E "rror"; done
-for n in power bvh ris32 ris1024 restir; do python3 -c "
-import json;d=json.load(open('docs/results/many-lights/cpu-selection-ceiling/$n/summary.json'));s=d['strategies']['solid-angle+power']
-print('$n'.ljust(8), [(p['spp'], round(p['rmse_nolight'],4)) for p in s['points']], 'ms/spp', round(s['ms_per_spp'],1))"; done
