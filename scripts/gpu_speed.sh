@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# The GPU speed report (docs/results/gpu-speed): `penumbra bench` at 1920x1080, 1 spp a launch, depth 8, on the
+# wavefront with each trace stage and on the megakernel, GPU time (CUDA events) beside wall time per launch, and
+# the trace stage alone on random rays (`bench --probe`). Run on a GPU machine from a clean commit:
+#
+#   scripts/gpu_speed.sh [PENUMBRA] [OUT_DIR]      (defaults: build/penumbra, docs/results/gpu-speed)
+#
+# Scenes that need models from outside the repository (sponza) are left out where penumbra does not list them.
+# The report (OUT_DIR/README.md) is written by scripts/gpu_speed_report.py from the JSON files beside it.
+set -euo pipefail
+penumbra=${1:-build/penumbra}
+out=${2:-docs/results/gpu-speed}
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+mkdir -p "$out"
+scenes=cornell-sphere
+"$penumbra" scenes 2>/dev/null | grep -qw sponza && scenes+=,sponza
+"$penumbra" scenes 2>/dev/null | grep -qw many-spheres && scenes+=,many-spheres
+common=(--backend optix --scenes "$scenes" --strategies area,solid-angle --mis none --width 1920 --height 1080
+        --spp-per-launch 1 --max-depth 8 --launches 50 --warmup 10)
+for mode in wavefront-cuda wavefront-optix megakernel; do
+  case $mode in
+    wavefront-cuda) extra=(--wavefront --traversal cuda) ;;
+    wavefront-optix) extra=(--wavefront --traversal optix) ;;
+    megakernel) extra=(--megakernel) ;;
+  esac
+  echo "== bench $mode" >&2
+  "$penumbra" bench "${common[@]}" "${extra[@]}" --json "$out/bench_$mode.json" >&2
+done
+echo "== probe" >&2
+"$penumbra" bench --backend optix --scenes "$scenes" --probe --json "$out/probe.json" >&2
+python3 "$here/gpu_speed_report.py" "$out"
