@@ -82,6 +82,28 @@ TEST(NolightMask, AnyEmissionSeenDirectlyLeavesAPixelOut) {
   EXPECT_EQ(nolight_mask(direct), (std::vector<uint8_t>{1, 0, 0, 1}));
 }
 
+TEST(NolightMask, LightPixelsGrowByTheirEightNeighbours) {
+  // 4 x 3 pixels, one light pixel at (1, 1) and one at the corner (3, 0): every pixel within one step of either
+  // (diagonals too) becomes a light pixel: all but (3, 2).
+  std::vector<uint8_t> mask = {1, 1, 1, 0,
+                               1, 0, 1, 1,
+                               1, 1, 1, 1};
+  std::vector<uint8_t> grown = {0, 0, 0, 0,
+                                0, 0, 0, 0,
+                                0, 0, 0, 1};
+  EXPECT_EQ(grow_light_pixels(mask, 4, 3), grown);
+  // No light pixel: unchanged; every one: unchanged.
+  EXPECT_EQ(grow_light_pixels(std::vector<uint8_t>(6, 1), 3, 2), std::vector<uint8_t>(6, 1));
+  EXPECT_EQ(grow_light_pixels(std::vector<uint8_t>(6, 0), 3, 2), std::vector<uint8_t>(6, 0));
+  // A 5 x 5 image with its centre lit: the 3 x 3 block around it, and no more.
+  std::vector<uint8_t> c(25, 1);
+  c[12] = 0;
+  const std::vector<uint8_t> g = grow_light_pixels(c, 5, 5);
+  for (int y = 0; y < 5; ++y)
+    for (int x = 0; x < 5; ++x)
+      EXPECT_EQ(g[y * 5 + x], (std::abs(x - 2) <= 1 && std::abs(y - 2) <= 1) ? 0 : 1) << x << "," << y;
+}
+
 TEST(NoiseFloor, RootOfTheMeanVarianceOfTheMean) {
   // Variances of the mean, per channel: pixel 0 (1, 1, 1), pixel 1 (4, 4, 4), pixel 2 (0, 3, 6).
   std::vector<float> var = {1.f, 1.f, 1.f, 4.f, 4.f, 4.f, 0.f, 3.f, 6.f};
@@ -205,7 +227,7 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
   ASSERT_EQ(w, W);
   ASSERT_EQ(h, H);
 
-  // Pixels that see the lamp: a render of camera rays alone, with any light in them.
+  // Pixels that see the lamp: a render of camera rays alone, with any light in them, and their neighbours.
   Scene scene = load_scene(scene_name, {"render.width=" + std::to_string(W), "render.height=" + std::to_string(H)});
   std::string note;
   auto backend = make_backend("cpu", scene, BackendOptions{2}, &note);
@@ -216,7 +238,14 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
     Film film(W, H);
     backend->render(f, film, 0, 1024);
     std::vector<float> m = film.mean();
-    for (size_t p = 0; p < lamp.size(); ++p) lamp[p] = m[3 * p] > 0 || m[3 * p + 1] > 0 || m[3 * p + 2] > 0;
+    std::vector<bool> seen(lamp.size());
+    for (size_t p = 0; p < lamp.size(); ++p) seen[p] = m[3 * p] > 0 || m[3 * p + 1] > 0 || m[3 * p + 2] > 0;
+    // ... and its eight neighbours.
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        for (int v = std::max(0, y - 1); v <= std::min(H - 1, y + 1); ++v)
+          for (int u = std::max(0, x - 1); u <= std::min(W - 1, x + 1); ++u)
+            if (seen[size_t(v) * W + u]) lamp[size_t(y) * W + x] = true;
   }
   size_t lamps = 0;
   for (bool l : lamp) lamps += l;

@@ -11,6 +11,13 @@ def rmse(img, ref, keep):
     return float(np.sqrt(d[keep].mean()))
 
 
+def grow(lamps):
+    """Light pixels and their eight neighbours (docs/metrics.md)."""
+    p = np.pad(lamps, 1)
+    h, w = lamps.shape
+    return np.any([p[1 + dy:1 + dy + h, 1 + dx:1 + dx + w] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+
+
 @pytest.mark.parametrize("scene,overrides", [
     ("cornell-sphere", {}),
     # restir with temporal reuse: sample N takes sample N - 1's final reservoirs, so it is not a render of
@@ -25,9 +32,10 @@ def test_frame_error_is_sample_n_alone(tmp_path, scene, overrides):
     frame = res.summary["strategies"]["solid-angle+power"]["frame"]
     assert frame["spp"] == n and res.summary["frame_spp"] == n
     ref = penumbra.read_exr(res.summary["reference"]["file"])
-    # converge's mask: pixels with any emission seen by camera rays at max depth 0 (1,024 spp, the scene's seed).
-    lamps = penumbra.render(scene, backend="cpu", width=w, height=h, spp=1024, max_depth=0,
-                            overrides=overrides).rgb.sum(axis=-1) > 0
+    # converge's mask: pixels with any emission seen by camera rays at max depth 0 (1,024 spp, the scene's seed),
+    # grown by their eight neighbours.
+    lamps = grow(penumbra.render(scene, backend="cpu", width=w, height=h, spp=1024, max_depth=0,
+                                 overrides=overrides).rgb.sum(axis=-1) > 0)
     keep = np.repeat(~lamps[..., None], 3, axis=-1)
     kw = dict(backend="cpu", width=w, height=h, strategy="solid-angle", mis="power", seed=1, overrides=overrides)
     a = penumbra.render(scene, spp=n, **kw).rgb.astype(np.float64)

@@ -417,14 +417,15 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
 
   // --- Pixels that see a light directly -----------------------------------------
   // A render with max depth 0 holds only emission seen by camera rays; any
-  // pixel with some of it (also partially covered ones) is left out of the
-  // "no light" metrics.
+  // pixel with some of it (also partially covered ones), and its eight
+  // neighbours (slivers of a lamp's edge that no sample found), are left out
+  // of the "no light" metrics (docs/metrics.md).
   std::vector<uint8_t> mask;
   {
     Film film(W, H);
     backend->render(mask_frame, film, 0, kLightMaskSpp, a.progress);
     count_nonfinite(nonfinite_mask);
-    mask = nolight_mask(film.mean());
+    mask = grow_light_pixels(nolight_mask(film.mean()), W, H);
   }
   size_t light_pixels = std::count(mask.begin(), mask.end(), 0);
 

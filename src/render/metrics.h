@@ -58,6 +58,24 @@ inline std::vector<uint8_t> nolight_mask(const std::vector<float>& direct) {
   return mask;
 }
 
+// The light pixels of a mask grown by their eight neighbours (0 = a light pixel). A lamp larger than a pixel
+// that covers a sliver of one can be missed by every camera sample there (probability (1 - coverage)^spp), but then
+// covers much of a neighbour, which the samples find: growing the set takes the sliver out too. What it cannot
+// catch: a lamp smaller than a pixel that no sample hit at all.
+inline std::vector<uint8_t> grow_light_pixels(const std::vector<uint8_t>& mask, int width, int height) {
+  std::vector<uint8_t> out = mask;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      if (mask[size_t(y) * width + x]) continue;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int u = x + dx, v = y + dy;
+          if (u >= 0 && u < width && v >= 0 && v < height) out[size_t(v) * width + u] = 0;
+        }
+    }
+  return out;
+}
+
 // The reference's own noise as an RMSE: sqrt of the mean, over pixels (those the
 // mask keeps) and channels, of its variance of the mean (Film::variance_of_mean).
 // Its square is what the reference adds to every measured MSE in expectation; 0
