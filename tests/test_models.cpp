@@ -434,7 +434,10 @@ TEST(Models, BuiltinScenesWithModels) {
       s = load_scene(name);
     } catch (const SceneError& e) {
       std::string msg = e.what();
-      EXPECT_NE(msg.find("PENUMBRA_SCENES"), std::string::npos) << msg;  // absent data: says how to point at it
+      // Absent data: one line naming the file, the folders tried and the script that downloads it.
+      EXPECT_NE(msg.find(" not found in $PENUMBRA_SCENES"), std::string::npos) << msg;
+      EXPECT_NE(msg.find(": run scripts/fetch-scenes.sh"), std::string::npos) << msg;
+      EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
       std::printf("[ SKIPPED  ] %s: %s\n", name, msg.c_str());
       continue;
     }

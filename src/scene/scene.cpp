@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -867,11 +868,17 @@ Scene load_scene(const std::string& name_or_path, const std::vector<std::string>
       std::error_code ec;
       const std::string f = m["file"].get<std::string>();
       if (fs::is_regular_file(f, ec)) continue;
-      std::string roots;
-      for (const auto& r : scene_data_roots()) roots += (roots.empty() ? "" : ", ") + r;
-      throw SceneError(source, "models[" + std::to_string(i) + "].file", "'" + f + "' not found (looked in " + roots +
-                       "); set PENUMBRA_SCENES to a folder holding sponza/ and models/, or pass --set models." +
-                       std::to_string(i) + ".file=PATH");
+      const std::string field = "models[" + std::to_string(i) + "].file";
+      // The scene's own file is under the first root (scene_data_file); one set with --set is not.
+      const std::vector<std::string> data_roots = scene_data_roots();
+      const fs::path rel = fs::path(f).lexically_normal().lexically_relative(fs::path(data_roots.front()).lexically_normal());
+      if (rel.empty() || *rel.begin() == "..") throw SceneError(source, field, "'" + f + "' not found");
+      const char* env = std::getenv("PENUMBRA_SCENES");
+      std::string roots = env && *env ? "" : "$PENUMBRA_SCENES (unset), ";
+      for (size_t k = 0; k < data_roots.size(); ++k)
+        roots += (k ? ", " : "") + (k == 0 && env && *env ? "$PENUMBRA_SCENES=" : std::string()) + data_roots[k];
+      throw SceneError(source, field, rel.generic_string() + " not found in " + roots +
+                       ": run scripts/fetch-scenes.sh (downloads Sponza and the Stanford bunny)");
     }
   }
   try {
