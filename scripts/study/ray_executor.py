@@ -151,7 +151,7 @@ def point_key(options, reference_key, technique, commit):
 def write_run(run, plan, points, reference, write_atomic):
     """Writes run.out as `penumbra converge` would: the points' files, their
     measurements in technique order, and one summary.json with every technique,
-    each through write_atomic(path, write) (study.py's: never a half-written
+    each through write_atomic(path, write) (common.py's: never a half-written
     file). `reference`: cached (before this study), seconds (of its chunks), file."""
     def write(path, data):
         mode = "wb" if isinstance(data, bytes) else "w"

@@ -1,0 +1,12 @@
+"""The study (scripts/study.py): runs `penumbra converge` over each part's
+scenes and sweeps, then writes its reports.
+
+    planner       Run tuples, presets, the plan of each part
+    executors     the local executor and its estimate; the entry to the Ray one
+    ray_executor  the study as tasks on a Ray cluster (--executor ray)
+    thesis, lab, many_lights, denoise   one part each: figures, report, checks
+    report        what the reports share (first lines, formats, figure helpers)
+    metrics       the ratios and fits the reports print
+    common        log lines, RunFailed, atomic writes
+    cli           the command line (python3 scripts/study.py, python3 -m study)
+"""
