@@ -60,7 +60,8 @@ def main(prog=None):
     ap = argparse.ArgumentParser(prog=prog, description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--preset", choices=sorted(set(PRESETS) | set(DENOISE_PRESETS)), default="full",
-                    help="full, gpu (about half an hour of one GPU), smoke (tiny, CPU, CI); cpu: the denoise part sized for a CPU")
+                    help="full, gpu (about half an hour of one GPU), cpu (every part sized for two CPU cores: well "
+                         "under an hour), smoke (tiny, CPU, CI)")
     ap.add_argument("--allow-dirty", action="store_true",
                     help="run from a tree with uncommitted changes (refused otherwise); every report says so first")
     ap.add_argument("--out", default="docs/results", help="report folder")

@@ -19,6 +19,12 @@ PRESETS = {
                 sweep=dict(width=480, height=270, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096),
                 radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
                 slat_widths=[0.02, 0.08, 0.14, 0.2, 0.23]),
+    # Two CPU cores: the gpu preset's sweeps at a fraction of the pixels and samples (with the other parts' cpu
+    # presets, --part all takes well under an hour).
+    "cpu": dict(headline=dict(width=160, height=90, reference_spp=8192, max_spp=256, seeds=4, reference_chunk=2048),
+                sweep=dict(width=96, height=54, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=2048),
+                radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
+                slat_widths=[0.02, 0.08, 0.14, 0.2, 0.23]),
     # What fits in a CI run on two CPU cores: the same pipeline, tiny.
     "smoke": dict(headline=dict(width=32, height=32, reference_spp=4096, max_spp=256, seeds=4, reference_chunk=1024),
                   sweep=dict(width=24, height=24, reference_spp=1024, max_spp=64, seeds=2, reference_chunk=512),
@@ -33,6 +39,10 @@ LAB_PRESETS = {
                  roughness=[0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0], panel_offsets=[0.0, 0.2, 0.5, 1.0, 2.0]),
     "gpu": dict(headline=dict(width=640, height=360, reference_spp=8192, max_spp=256, seeds=2, reference_chunk=4096),
                 sweep=dict(width=320, height=180, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=4096),
+                radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
+                roughness=[0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0], panel_offsets=[0.0, 0.2, 0.5, 1.0, 2.0]),
+    "cpu": dict(headline=dict(width=160, height=90, reference_spp=8192, max_spp=128, seeds=2, reference_chunk=2048),
+                sweep=dict(width=80, height=45, reference_spp=4096, max_spp=128, seeds=2, reference_chunk=2048),
                 radii=[0.02, 0.05, 0.1, 0.2, 0.4, 0.8], near_k=[1.1, 1.5, 2, 4, 8, 16],
                 roughness=[0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0], panel_offsets=[0.0, 0.2, 0.5, 1.0, 2.0]),
     "smoke": dict(headline=dict(width=24, height=24, reference_spp=2048, max_spp=64, seeds=2, reference_chunk=1024),
@@ -60,6 +70,13 @@ MANY_PRESETS = {
                               frame_spp=32, reference_selection="bvh"),
                 lights=10000, counts=[10, 100, 1000, 10000, 100000],
                 sweep=dict(width=480, height=270, reference_spp=16384, max_spp=64, seeds=2, reference_chunk=4096,
+                           reference_selection="bvh")),
+    # Two CPU cores: the gpu preset's 10,000 lights, at 96x54 (sponza-lanterns' ten runs cost the most), and its
+    # sweep up to 10,000.
+    "cpu": dict(headline=dict(width=96, height=54, reference_spp=2048, max_spp=64, seeds=2, reference_chunk=2048,
+                              frame_spp=16, reference_selection="bvh"),
+                lights=10000, counts=[10, 100, 1000, 10000],
+                sweep=dict(width=96, height=54, reference_spp=2048, max_spp=64, seeds=2, reference_chunk=2048,
                            reference_selection="bvh")),
     # At 24x16 every lamp is smaller than a pixel, and the pixels it covers in part escape the mask of lamp
     # pixels: the smoke runs look at the floor from below the lamps (none in view).
