@@ -97,8 +97,9 @@ def main():
     except ImportError:
         print("study_ray: ray is not installed (python3 -m pip install ray): skipped", file=sys.stderr)
         return 77
-    if not os.path.isdir(os.path.join(args.local, "runs")):
-        print(f"study_ray: {args.local}/runs: no local smoke study to compare with (run study_smoke)", file=sys.stderr)
+    local = os.path.join(args.local, "thesis")  # the thesis part's report and runs
+    if not os.path.isdir(os.path.join(local, "runs")):
+        print(f"study_ray: {local}/runs: no local smoke study to compare with (run study_smoke)", file=sys.stderr)
         return 1
     shutil.rmtree(args.work, ignore_errors=True)
     fault = os.path.join(args.work, "fault")
@@ -143,14 +144,14 @@ def main():
     for kind in ("chunk", "point"):
         if not os.path.exists(os.path.join(fault, kind + ".killed")):
             problems.append(f"no {kind} task was killed (PENUMBRA_STUDY_FAULT)")
-    problems += compare_runs(args.local, out)
-    if not os.path.exists(os.path.join(out, "README.md")):
+    problems += compare_runs(local, os.path.join(out, "thesis"))
+    if not os.path.exists(os.path.join(out, "thesis", "README.md")):
         problems.append("no report (README.md)")
     for line in problems:
         print("study_ray: FAILED: " + line, file=sys.stderr)
     if problems:
         return 1
-    print(f"study_ray: the Ray study equals the local one ({len(os.listdir(os.path.join(out, 'runs')))} runs), "
+    print(f"study_ray: the Ray study equals the local one ({len(os.listdir(os.path.join(out, 'thesis', 'runs')))} runs), "
           "with two killed tasks retried and one interruption resumed", file=sys.stderr)
     return 0
 

@@ -146,10 +146,11 @@ def main(prog=None):
         sys.exit(0 if ok else 1)
     preset, lab = PRESETS[args.preset], LAB_PRESETS[args.preset]
     lab_dir, many_dir = os.path.join(args.out, "lab"), os.path.join(args.out, "many-lights")
+    thesis_dir = os.path.join(args.out, "thesis")
     many = MANY_PRESETS[args.preset]
     # Every run, planned and estimated before any starts.
     lab_runs = lab_plan(args, lab, lab_dir) if args.part in ("lab", "all") else ([], {})
-    thesis_runs = thesis_plan(args, preset) if args.part in ("thesis", "all") else ([], {})
+    thesis_runs = thesis_plan(args, preset, thesis_dir) if args.part in ("thesis", "all") else ([], {})
     many_runs = many_plan(args, many, many_dir) if args.part in ("many-lights", "all") else ([], {})
     args.ray_failed = {}
     if not args.report_only:
@@ -169,14 +170,15 @@ def main(prog=None):
         os.makedirs(many_dir, exist_ok=True)
         ok = finish_many_lights(args, many, many_dir, many_runs, *run_all(args, many_runs)) and ok
     if args.part in ("thesis", "all"):
-        ok = finish_thesis(args, preset, *run_all(args, thesis_runs)) and ok
+        os.makedirs(thesis_dir, exist_ok=True)
+        ok = finish_thesis(args, preset, thesis_dir, *run_all(args, thesis_runs)) and ok
     if args.part in ("denoise", "all"):
         ok = run_denoise(args, os.path.join(args.out, "denoise")) and ok
     if not ok:
         sys.exit(1)
     if not args.keep_runs:
         # Keep what the report needs to stay reproducible and small: CSV, JSON, PNG.
-        for runs in (os.path.join(args.out, "runs"), os.path.join(lab_dir, "runs"), os.path.join(many_dir, "runs")):
+        for runs in (os.path.join(thesis_dir, "runs"), os.path.join(lab_dir, "runs"), os.path.join(many_dir, "runs")):
             for root, _, files in os.walk(runs):
                 for f in files:
                     if f.endswith(".npy"):

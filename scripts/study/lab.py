@@ -68,7 +68,11 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
     w("- **Efficiency** = 1 / (MSE x time) at the largest spp, relative to `area` (the larger, the better at equal "
       "time). **Time to quality**: time to reach the scene's RMSE target along each technique's fitted log-log line, "
       "relative to `area`; the target is the median over techniques of the RMSE at the largest spp, so that it is "
-      "reached or nearly reached by all. RMSE on linear, unclamped radiance over all pixels (thesis eq. 4.1).")
+      "reached or nearly reached by all. RMSE on linear, unclamped radiance (thesis eq. 4.1) over all pixels, and "
+      "over the pixels that see no emitter directly (no-light pixels: docs/metrics.md), where the techniques differ "
+      "and a lamp's edge noise, the same for all of them, is left out. Efficiency at the largest measured spp, for "
+      "global illumination and for direct lighting alone (max depth 1: the camera's vertex lit by next-event "
+      "estimation, what a light sampler changes).")
     w(f"- Sweeps at {s['width']}x{s['height']}, ground truth {s['reference_spp']} spp, up to {s['max_spp']} spp, "
       f"{s['seeds']} seeds.\n")
     w("Every measurement: `runs/*/measurements.csv`, fits and settings: `runs/*/summary.json`.\n")
@@ -80,11 +84,18 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
     for r in head:
         sp = lab_speedups(r)
         w(f"| {r['scene']} | {lab_threshold(r):.4f} | " + " | ".join(f"{fmt(sp.get(t, float('nan')))}x" for t in cols) + " |")
-    w("\n## Efficiency (1 / (MSE x time)) relative to `area`\n")
-    w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
-    w("| --- |" + " ---: |" * len(cols))
-    for r in head:
-        w(f"| {r['scene']} | " + " | ".join(f"{fmt(lab_efficiency(r, t))}" for t in cols) + " |")
+    def efficiency_table(runs, key):
+        w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
+        w("| --- |" + " ---: |" * len(cols))
+        for r in runs:
+            w(f"| {r['scene']} | " + " | ".join(f"{fmt(lab_efficiency(r, t, key))}" for t in cols) + " |")
+    direct = sweeps.get("direct", [])
+    for title, runs in (("global illumination (max depth 8)", head), ("direct lighting only (max depth 1)", direct)):
+        if not runs:
+            continue
+        for key, pixels in (("efficiency", "all pixels"), ("efficiency_nolight", "no-light pixels")):
+            w(f"\n## Efficiency (1 / (MSE x time)) relative to `area`: {title}, {pixels}\n")
+            efficiency_table(runs, key)
     w("\n## Cost: ms per spp\n")
     w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
     w("| --- |" + " ---: |" * len(cols))

@@ -170,18 +170,22 @@ def keep(plan_, kept):
             {k: v for k, v in sweeps.items() if all(run_key(r) in kept for r in v)})
 
 
-def thesis_plan(args, preset):
-    """Chapter 4's runs: (headline runs, {sweep: runs})."""
+def thesis_plan(args, preset, out_dir):
+    """Chapter 4's runs (in out_dir/runs): (headline runs, {sweep: runs})."""
     scenes = HEADLINE if args.report_only or not args.scene else [s for s in args.scene if s in HEADLINE]
-    head = [Run(s, s, preset["headline"]) for s in scenes] if args.only not in ("sweeps", "params") else []
+    strategies, mis = tuple(STRATEGIES), ("none",)
+    head = [Run(s, s, preset["headline"], (), strategies, mis, out_dir) for s in scenes] \
+        if args.only not in ("sweeps", "params") else []
     sweeps = {}
     if args.only not in ("headline", "params"):
         sw = preset["sweep"]
-        sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",)) for r in preset["radii"]]
-        sweeps["distance"] = [Run(f"near-{k}", "cornell-near", sw, (f"light.center=[1.6,3.2,{BOX[2] - k * 0.15:.4f}]",))
-                              for k in preset["near_k"]]
+        sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",), strategies, mis, out_dir)
+                            for r in preset["radii"]]
+        sweeps["distance"] = [Run(f"near-{k}", "cornell-near", sw, (f"light.center=[1.6,3.2,{BOX[2] - k * 0.15:.4f}]",),
+                                  strategies, mis, out_dir) for k in preset["near_k"]]
         sweeps["occlusion"] = [Run(f"slats-{wd}", "occlusion", sw, (f"meshes.slat-x.size=[{wd},0.04,{BOX[2]}]",
-                                                                    f"meshes.slat-z.size=[{BOX[0]},0.04,{wd}]"))
+                                                                    f"meshes.slat-z.size=[{BOX[0]},0.04,{wd}]"),
+                                   strategies, mis, out_dir)
                                for wd in preset["slat_widths"]]
     return head, sweeps
 
@@ -194,6 +198,11 @@ def lab_plan(args, lab, out_dir):
     head = [Run(sc, sc, h, (), LAB_STRATEGIES, MIS_MODES, out_dir, "glossy" if sc == "glossy" else None)
             for sc in scenes] if args.only not in ("sweeps", "params") else []
     sweeps = {}
+    if args.only not in ("sweeps", "params"):
+        # Direct lighting alone (one scattering vertex: what a light sampler changes), beside the headline's global
+        # illumination, on the same scenes and sizes.
+        sweeps["direct"] = [Run(f"{sc}-direct", sc, h, ("render.max_depth=1",), LAB_STRATEGIES, MIS_MODES, out_dir,
+                                "glossy" if sc == "glossy" else None) for sc in scenes]
     if args.only not in ("headline", "params"):
         three = LAB_STRATEGIES[:3]
         sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",), three, out_dir=out_dir)

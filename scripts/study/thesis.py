@@ -1,5 +1,6 @@
 """The thesis part: chapter 4 (area against solid-angle sampling of sphere
 lights), its figures, report (README.md) and the CI smoke test's assertions."""
+import copy
 import glob
 import json
 import math
@@ -236,11 +237,13 @@ def check(head):
     return checks_passed("CHECK", failures)
 
 
-def finish_thesis(args, preset, head, sweeps):
-    """The thesis's report and (with --check) its assertions. False: a check failed."""
+def finish_thesis(args, preset, out_dir, head, sweeps):
+    """The thesis's report in out_dir and (with --check) its assertions. False: a check failed."""
     radius_runs = sweeps.get("radius", [])
     if head and radius_runs and not args.no_report:
-        write_report(args, preset, head, radius_runs, sweeps.get("distance", []), sweeps.get("occlusion", []),
+        report_args = copy.copy(args)
+        report_args.out = out_dir
+        write_report(report_args, preset, head, radius_runs, sweeps.get("distance", []), sweeps.get("occlusion", []),
                      preset["radii"], preset["near_k"], preset["slat_widths"])
-        log(f"study: wrote {os.path.join(args.out, 'README.md')}")
+        log(f"study: wrote {os.path.join(out_dir, 'README.md')}")
     return not (args.check and head and not check(head))
