@@ -89,10 +89,10 @@ def main(prog=None):
     ap.add_argument("--retries", type=int, default=3,
                     help="ray: how often a task whose worker or machine is lost runs again (Ray's max_retries)")
     ap.add_argument("--part", choices=["thesis", "lab", "many-lights", "denoise", "all"], default="all",
-                    help="thesis: chapter 4 (area against solid-angle, docs/results/README.md); lab: every strategy and "
+                    help="thesis: chapter 4 (area against solid-angle, docs/results/thesis/README.md); lab: every strategy and "
                          "MIS mode on the lab's scenes (docs/results/lab/README.md); many-lights: light selection "
                          "methods at equal time and the lights-count sweep (docs/results/many-lights/README.md); "
-                         "denoise: raw and denoised RMSE per strategy, 1-64 spp, on the headline scenes (GPU only; "
+                         "denoise: raw and denoised RMSE per strategy, 1-64 spp, on the headline scenes, on any backend ("
                          "docs/results/denoise/README.md); all: the four")
     ap.add_argument("--only", choices=["headline", "sweeps", "params"],
                     help="run one part only; params (many-lights only, not part of a default run): restir's "
