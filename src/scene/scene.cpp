@@ -5,7 +5,6 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -873,12 +872,11 @@ Scene load_scene(const std::string& name_or_path, const std::vector<std::string>
       const std::vector<std::string> data_roots = scene_data_roots();
       const fs::path rel = fs::path(f).lexically_normal().lexically_relative(fs::path(data_roots.front()).lexically_normal());
       if (rel.empty() || *rel.begin() == "..") throw SceneError(source, field, "'" + f + "' not found");
-      const char* env = std::getenv("PENUMBRA_SCENES");
-      std::string roots = env && *env ? "" : "$PENUMBRA_SCENES (unset), ";
-      for (size_t k = 0; k < data_roots.size(); ++k)
-        roots += (k ? ", " : "") + (k == 0 && env && *env ? "$PENUMBRA_SCENES=" : std::string()) + data_roots[k];
+      std::string roots;
+      for (const std::string& r : data_roots) roots += (roots.empty() ? "" : ", ") + r;
       throw SceneError(source, field, rel.generic_string() + " not found in " + roots +
-                       ": run scripts/fetch-scenes.sh (downloads Sponza and the Stanford bunny)");
+                       ": run scripts/fetch-scenes.sh (downloads Sponza and the Stanford bunny), or set "
+                       "$PENUMBRA_SCENES to the folder that holds them");
     }
   }
   try {
