@@ -77,7 +77,11 @@ def denoise_measure(args, cfg, scenes):
     rows, meta = [], {}
     spps = [1 << k for k in range(int(math.log2(cfg["max_spp"])) + 1)]
     for scene in scenes:
-        ref, _ = denoise_reference(args, scene, cfg)
+        try:
+            ref, _ = denoise_reference(args, scene, cfg)
+        except penumbra.SceneError as e:  # a scene whose model data is not here (scripts/fetch-scenes.sh)
+            log(f"study: denoise: leaving {scene} out: {e}")
+            continue
         # Pixels where a camera ray can see a light and their eight neighbours (a max-depth-0 render of 1,024
         # samples a pixel, grown by one, as converge finds them: docs/metrics.md): their noise is the same for
         # every strategy. rmse(img, keep) leaves them out.
