@@ -246,7 +246,7 @@ class Viewer {
   size_t next_action_ = 0;
   bool quit_ = false;
   std::vector<std::string> pending_window_shots_;
-  uint64_t nonfinite_ = 0;  // samples left out by the backend, over the session
+  uint64_t nonfinite_ = 0;  // samples left out by the backend, while the viewer runs
 };
 
 Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
@@ -1069,7 +1069,7 @@ int Viewer::run() {
   }
   if (nonfinite_ > 0) {
     std::fprintf(stderr,
-                 "warning: %s: %llu samples were NaN or infinite and left out over the session (exit status %d)\n",
+                 "warning: %s: %llu samples were NaN or infinite and left out while the viewer ran (exit status %d)\n",
                  scene_->source.c_str(), (unsigned long long)nonfinite_, int(kExitNonFinite));
     return kExitNonFinite;
   }
