@@ -173,20 +173,18 @@ def keep(plan_, kept):
 def thesis_plan(args, preset, out_dir):
     """Chapter 4's runs (in out_dir/runs): (headline runs, {sweep: runs})."""
     scenes = HEADLINE if args.report_only or not args.scene else [s for s in args.scene if s in HEADLINE]
-    strategies, mis = tuple(STRATEGIES), ("none",)
-    head = [Run(s, s, preset["headline"], (), strategies, mis, out_dir) for s in scenes] \
+    head = [Run(s, s, preset["headline"], out_dir=out_dir) for s in scenes] \
         if args.only not in ("sweeps", "params") else []
     sweeps = {}
     if args.only not in ("headline", "params"):
         sw = preset["sweep"]
-        sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",), strategies, mis, out_dir)
+        sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",), out_dir=out_dir)
                             for r in preset["radii"]]
         sweeps["distance"] = [Run(f"near-{k}", "cornell-near", sw, (f"light.center=[1.6,3.2,{BOX[2] - k * 0.15:.4f}]",),
-                                  strategies, mis, out_dir) for k in preset["near_k"]]
+                                  out_dir=out_dir) for k in preset["near_k"]]
         sweeps["occlusion"] = [Run(f"slats-{wd}", "occlusion", sw, (f"meshes.slat-x.size=[{wd},0.04,{BOX[2]}]",
                                                                     f"meshes.slat-z.size=[{BOX[0]},0.04,{wd}]"),
-                                   strategies, mis, out_dir)
-                               for wd in preset["slat_widths"]]
+                                   out_dir=out_dir) for wd in preset["slat_widths"]]
     return head, sweeps
 
 
