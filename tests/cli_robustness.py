@@ -220,7 +220,8 @@ def case_long():
         fail(f"an interrupted reference left files: {os.listdir(work('cache'))}")
     # study.py: Ctrl-C (to the whole process group, as a terminal sends it).
     p = subprocess.Popen([sys.executable, ARGS.study, "--preset", "smoke", "--backend", "cpu", "--penumbra",
-                          ARGS.penumbra, "--out", work("study"), "--cache", work("study-cache"), "--no-report"],
+                          ARGS.penumbra, "--out", work("study"), "--cache", work("study-cache"), "--no-report",
+                          "--allow-dirty"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     time.sleep(6)
     os.killpg(p.pid, signal.SIGINT)
