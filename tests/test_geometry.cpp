@@ -236,7 +236,9 @@ TEST(Geometry, InstanceTransformsKeepTheBound) {
       ASSERT_GE(edge_distance(v, D3(p)), -len(D3(err))) << i;
   }
   EXPECT_GT(tested, 10000);
-  EXPECT_LT(clipped, tested / 10);  // about 2%: tiny triangles far out in the instance's space
+  // About 14%: tiny triangles far out in the instance's space, under transforms whose inverse is large (the bound
+  // holds to_object's rounding of a ray's origin too, up to |B| |p| gamma(3); 2% without it).
+  EXPECT_LT(clipped, tested / 5);
 }
 
 TEST(Geometry, SphereHitsAreOnTheSphereAndOriginsOutside) {
