@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -42,6 +43,25 @@ double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const size_t n = v.size();
   return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
+}
+
+// How two closest-hit answers to one ray compare.
+enum class HitAgreement { BothMiss, Same, TOff, Tie, Other };
+HitAgreement compare_hits(const TraceRay& ray, const HitRecord& a, const HitRecord& b) {
+  const bool ha = a.instance != kTraceMiss, hb = b.instance != kTraceMiss;
+  if (!ha && !hb) return HitAgreement::BothMiss;
+  if (ha != hb) return HitAgreement::Other;
+  const float scale = 1.f + max_component(vmax(ray.o, -ray.o)) + std::fabs(a.t);
+  if (a.instance == b.instance && a.prim == b.prim)
+    return std::fabs(a.t - b.t) > 2e-5f * scale ? HitAgreement::TOff : HitAgreement::Same;
+  return std::fabs(a.t - b.t) <= 1e-4f * scale ? HitAgreement::Tie : HitAgreement::Other;
+}
+
+std::string describe_hit(const HitRecord& h) {
+  if (h.instance == kTraceMiss) return "miss";
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "t %.9g instance %u prim %u", h.t, h.instance, h.prim);
+  return buf;
 }
 
 }  // namespace
@@ -126,22 +146,14 @@ ProbeResult run_trace_probe(const Scene& scene, OptixBackend& optix, const Probe
   check(cudaMemcpy(bo.data(), bits_o.p, words * sizeof(uint32_t), cudaMemcpyDeviceToHost), "downloading bits");
   check(cudaMemcpy(bc.data(), bits_c.p, words * sizeof(uint32_t), cudaMemcpyDeviceToHost), "downloading bits");
   for (size_t i = 0; i < n; ++i) {
-    const bool a = ho[i].instance != kTraceMiss, b = hc[i].instance != kTraceMiss;
-    r.hits_optix += a;
-    r.hits_cuda += b;
-    if (!a && !b) continue;
-    if (a != b) {
-      ++r.closest_other;
-      continue;
+    r.hits_optix += ho[i].instance != kTraceMiss;
+    r.hits_cuda += hc[i].instance != kTraceMiss;
+    switch (compare_hits(closest[i], ho[i], hc[i])) {
+      case HitAgreement::TOff: ++r.closest_t_off; break;
+      case HitAgreement::Tie: ++r.closest_ties; break;
+      case HitAgreement::Other: ++r.closest_other; break;
+      default: break;
     }
-    const Vec3 o = closest[i].o;
-    const float scale = 1.f + max_component(vmax(o, -o)) + std::fabs(ho[i].t);
-    if (ho[i].instance == hc[i].instance && ho[i].prim == hc[i].prim)
-      r.closest_t_off += std::fabs(ho[i].t - hc[i].t) > 2e-5f * scale;
-    else if (std::fabs(ho[i].t - hc[i].t) <= 1e-4f * scale)
-      ++r.closest_ties;
-    else
-      ++r.closest_other;
   }
   for (size_t i = 0; i < n; ++i) {
     const bool a = (bo[i / 32] >> (i % 32)) & 1u, b = (bc[i / 32] >> (i % 32)) & 1u;
@@ -151,6 +163,52 @@ ProbeResult run_trace_probe(const Scene& scene, OptixBackend& optix, const Probe
   }
   // The last word's unused bits: the kernel writes them 0 (a word per warp).
   if (n % 32 && (bc.back() >> (n % 32)) != 0u) throw std::runtime_error("bench --probe: stray shadow bits");
+
+  // ---- Rays that leave surfaces: once each, the same comparison ----
+  const SurfaceRays sr = probe_surface_rays(scene, s.rays, s.seed);
+  if (sr.closest.size() == n) {
+    ProbeResult::Surface& f = r.surface;
+    check(cudaMemcpy(d_closest.p, sr.closest.data(), n * sizeof(TraceRay), cudaMemcpyHostToDevice), "uploading rays");
+    check(cudaMemcpy(d_shadow.p, sr.shadow.data(), n * sizeof(TraceRay), cudaMemcpyHostToDevice), "uploading rays");
+    optix.trace_closest(d_closest.as<TraceRay>(), s.rays, hits_o.as<HitRecord>());
+    optix.trace_shadow(d_shadow.as<TraceRay>(), s.rays, bits_o.as<uint32_t>());
+    cuda.trace_closest(d_closest.as<TraceRay>(), s.rays, hits_c.as<HitRecord>(), scene_view, stream);
+    cuda.trace_shadow(d_shadow.as<TraceRay>(), s.rays, bits_c.as<uint32_t>(), scene_view, stream);
+    check(cudaStreamSynchronize(stream), "tracing");
+    check(cudaMemcpy(ho.data(), hits_o.p, n * sizeof(HitRecord), cudaMemcpyDeviceToHost), "downloading hits");
+    check(cudaMemcpy(hc.data(), hits_c.p, n * sizeof(HitRecord), cudaMemcpyDeviceToHost), "downloading hits");
+    check(cudaMemcpy(bo.data(), bits_o.p, words * sizeof(uint32_t), cudaMemcpyDeviceToHost), "downloading bits");
+    check(cudaMemcpy(bc.data(), bits_c.p, words * sizeof(uint32_t), cudaMemcpyDeviceToHost), "downloading bits");
+    auto self = [&](const HitRecord& h, size_t i) {
+      return h.instance == sr.origin_instance[i] && h.prim == sr.origin_prim[i];
+    };
+    auto example = [&](const char* what, size_t i, const std::string& a, const std::string& b) {
+      if (f.examples.size() >= 12) return;
+      const TraceRay& ray = what[0] == 's' ? sr.shadow[i] : sr.closest[i];
+      char buf[320];
+      std::snprintf(buf, sizeof buf, "%s ray %zu from instance %u prim %u: o (%.9g, %.9g, %.9g) d (%.7g, %.7g, %.7g) "
+                    "tmax %.9g; optix: %s; cuda: %s", what, i, sr.origin_instance[i], sr.origin_prim[i], ray.o.x,
+                    ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z, ray.tmax, a.c_str(), b.c_str());
+      f.examples.push_back(buf);
+    };
+    for (size_t i = 0; i < n; ++i) {
+      f.hits_optix += ho[i].instance != kTraceMiss;
+      f.hits_cuda += hc[i].instance != kTraceMiss;
+      f.self_optix += self(ho[i], i);
+      f.self_cuda += self(hc[i], i);
+      const HitAgreement h = compare_hits(sr.closest[i], ho[i], hc[i]);
+      f.closest_t_off += h == HitAgreement::TOff;
+      f.closest_ties += h == HitAgreement::Tie;
+      f.closest_other += h == HitAgreement::Other;
+      if (h == HitAgreement::Other || self(ho[i], i) || self(hc[i], i))
+        example("closest", i, describe_hit(ho[i]), describe_hit(hc[i]));
+      const bool a = (bo[i / 32] >> (i % 32)) & 1u, b = (bc[i / 32] >> (i % 32)) & 1u;
+      f.blocked_optix += a;
+      f.blocked_cuda += b;
+      f.shadow_mismatched += a != b;
+      if (a != b) example("shadow", i, a ? "blocked" : "clear", b ? "blocked" : "clear");
+    }
+  }
   return r;
 }
 

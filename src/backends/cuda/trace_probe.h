@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "backends/cuda/bvh_build.h"
 #include "backends/optix/optix_backend.h"
@@ -34,6 +35,14 @@ struct ProbeResult {
   uint64_t closest_other = 0;  // hit against miss, or different primitives at different distances
   uint64_t closest_t_off = 0;  // the same primitive at distances further apart than 2e-5 of the coordinates
   uint64_t shadow_mismatched = 0;
+  // Rays that leave surfaces (probe_surface_rays: bounces and shadow rays as a path makes them), traced once by
+  // each implementation and compared as above; self-hits are closest hits on the ray's own triangle.
+  struct Surface {
+    uint64_t hits_optix = 0, hits_cuda = 0, self_optix = 0, self_cuda = 0;
+    uint64_t closest_ties = 0, closest_other = 0, closest_t_off = 0;
+    uint64_t blocked_optix = 0, blocked_cuda = 0, shadow_mismatched = 0;
+    std::vector<std::string> examples;  // the first disagreements, one line each
+  } surface;
   BvhStats bvh;
   std::string cuda_form;  // how the cuda kernels traced (CudaTraceForms::reason)
   uint64_t bvh_bytes = 0;
