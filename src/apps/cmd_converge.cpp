@@ -80,6 +80,7 @@ Command add_converge_command(CLI::App& app) {
   sub->add_option("--backend", a->backend, "cpu, optix or auto")->capture_default_str()->check(CLI::IsMember({"cpu", "optix", "auto"}));
   add_gpus_option(sub, &a->gpus);
   add_wavefront_options(sub, &a->wavefront, &a->traversal);
+  add_tune_option(sub, &a->tuning);
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   sub->add_flag("--yes", a->yes, "Run even when the estimated time on the CPU is more than an hour");
   sub->add_flag("--estimate-only", a->estimate_only,

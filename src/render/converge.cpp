@@ -215,6 +215,7 @@ std::unique_ptr<Backend> backend_for(const ConvergeOptions& a, const Scene& scen
   opts.gpus = a.gpus;
   opts.wavefront = a.wavefront;
   opts.traversal = a.traversal;
+  opts.tuning = a.tuning;
   return make_backend(a.backend, scene, opts, note);
 }
 

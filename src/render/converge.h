@@ -47,6 +47,7 @@ struct ConvergeOptions {
   int threads = 0;
   bool wavefront = true;           // GPU: the wavefront (BackendOptions::wavefront); --megakernel: false
   std::string traversal = "auto";  // GPU: --traversal
+  GpuTuning tuning{};              // GPU: --tune (BackendOptions::tuning)
   double threshold = 0.05;
   std::vector<int> crop;  // x, y, w, h; empty: around the light
   bool verbose = true;    // notes and progress bars on stderr
