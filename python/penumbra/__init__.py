@@ -398,7 +398,7 @@ def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str]
              frame_spp: int = 0, verbose: bool = False, yes: bool = False, estimate_only: bool = False,
              progress: Optional[ProgressFn] = None) -> ConvergeResult:
     """One convergence experiment, as ``penumbra converge`` runs it: a ground truth
-    (cached under ``cache``, default ~/.cache/penumbra; rendered in chunks of
+    (cached under ``cache``, default $XDG_CACHE_HOME/penumbra, else ~/.cache/penumbra; rendered in chunks of
     ``reference_chunk`` spp added in order), then 1, 2, 4, ... max_spp
     spp for each technique (every strategy with every ``mis`` mode; named
     "area" for MIS none, "area+power" otherwise) with ``seeds`` seeds, errors
@@ -433,7 +433,7 @@ def _converge_options(scene: Union[str, "os.PathLike[str]"], options: Mapping[st
     o.scene = os.fspath(scene)
     o.sets = _override_list(a["overrides"])
     o.out = os.fspath(a["out"]) if a["out"] else ""
-    o.cache = os.fspath(a["cache"]) if a["cache"] else ""
+    o.cache = os.fspath(a["cache"]) if a["cache"] else _penumbra.default_cache_dir()
     o.backend = _check_backend(a["backend"])
     o.gpus = _gpus(a["gpus"])
     o.strategies = [a["strategies"]] if isinstance(a["strategies"], str) else list(a["strategies"])

@@ -25,6 +25,7 @@
 #include <nanobind/stl/vector.h>
 #include <nanobind/stl/pair.h>
 
+#include "apps/environment.h"
 #include "io/image.h"
 #include "render/compare.h"
 #include "render/converge.h"
@@ -198,6 +199,12 @@ NB_MODULE(_penumbra, m) {
       raise_backend_error(e.what());
     }
   });
+
+  // The environment, read once at import as `penumbra` reads it (apps/environment.h): where the built-in scenes'
+  // files are (the package sets $PENUMBRA_DATA to its own copy before it imports this module).
+  set_scene_search(scene_search_from_environment());
+  m.def("default_cache_dir", []() { return cache_dir_from_environment(); },
+        "converge's ground-truth cache when none is given: $XDG_CACHE_HOME/penumbra, else ~/.cache/penumbra");
 
   m.def("scenes", []() {
     std::vector<std::pair<std::string, std::string>> out;

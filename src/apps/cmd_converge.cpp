@@ -8,6 +8,7 @@
 #include <string>
 
 #include "apps/commands.h"
+#include "apps/environment.h"
 #include "apps/exit_status.h"
 #include "apps/options.h"
 #include "apps/progress.h"
@@ -89,6 +90,7 @@ Command add_converge_command(CLI::App& app) {
   return {sub, [a]() {
     ConvergeOptions o = *a;
     if (o.out.empty()) o.out = "converge-" + std::filesystem::path(o.scene).stem().string();
+    if (o.cache.empty()) o.cache = cache_dir_from_environment();
     ConvergeResult r;
     try {
       r = run_converge(o);
