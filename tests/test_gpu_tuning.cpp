@@ -1,9 +1,12 @@
 // The GPU's tuning knobs (render/gpu_tuning.h): one table of keys, each parsed from KEY=VALUE with its errors
-// naming the key; the defaults are the values the GPU code had before they became options.
+// naming the key; the defaults are the values the GPU code had before they became options; the docs' table is
+// the code's.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <map>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -143,6 +146,25 @@ TEST(GpuTuning, JsonAndHelpHaveEveryKey) {
   const std::string help = gpu_tuning_help();
   for (const GpuTuningKey& k : gpu_tuning_keys())
     EXPECT_NE(help.find(std::string("\n  ") + k.key + " = " + k.values + " (default "), std::string::npos) << k.key;
+}
+
+// docs/guide.md's table of the keys is the code's (gpu_tuning_markdown), between its two markers.
+TEST(GpuTuning, DocsTableIsTheCodesTable) {
+  const std::string path = std::string(PENUMBRA_SOURCE_DATA) + "/../docs/guide.md";
+  std::ifstream f(path);
+  ASSERT_TRUE(f.good()) << path;
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const std::string doc = ss.str();
+  const std::string begin = "<!-- gpu-tuning-table: generated, tests/test_gpu_tuning.cpp checks it -->\n";
+  const std::string end = "<!-- /gpu-tuning-table -->";
+  const size_t a = doc.find(begin), b = doc.find(end);
+  ASSERT_NE(a, std::string::npos) << path << " has no " << begin;
+  ASSERT_NE(b, std::string::npos) << path << " has no " << end;
+  ASSERT_LT(a, b);
+  EXPECT_EQ(doc.substr(a + begin.size(), b - a - begin.size()), gpu_tuning_markdown())
+      << "docs/guide.md's table differs from the code's; the code's is:\n"
+      << gpu_tuning_markdown();
 }
 
 }  // namespace
