@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Before and after in one run: `penumbra bench` (and optionally `bench --probe` and same-seed renders) of two or
-# more binaries, or of one binary under different environment variables, interleaved round by round so that the
-# machine's drift falls on every variant alike; then one table of the medians.
+# more binaries, or of one binary with different GPU tuning (`--tune KEY=VALUE`, docs/guide.md), interleaved round
+# by round so that the machine's drift falls on every variant alike; then one table of the medians.
 #
-#   scripts/ab_bench.sh [VARIANT ...]      VARIANT: TAG=BINARY[:NAME=VALUE,NAME=VALUE...]
+#   scripts/ab_bench.sh [VARIANT ...]      VARIANT: TAG=BINARY[:KEY=VALUE,KEY=VALUE...] (each: --tune KEY=VALUE)
 #
 #   scripts/ab_bench.sh old=/tmp/penumbra-old new=build/penumbra
-#   scripts/ab_bench.sh fetch0=build/penumbra:PENUMBRA_CUDA_FETCH=0 fetch8=build/penumbra:PENUMBRA_CUDA_FETCH=8
+#   scripts/ab_bench.sh occ10=build/penumbra occ0=build/penumbra:cuda_occ=0 leaf4=build/penumbra:cuda_leaf=4
 #
 # Environment (defaults in brackets): AB_TASKS ["bench"; also "probe" (the trace stage on random rays, GPU
 # build) and "same" (each variant renders the first scene with seed 3, AB_SAME_ARGS [--width 320 --height 180
@@ -19,16 +19,17 @@
 set -uo pipefail
 
 die() { echo "ab_bench.sh: $*" >&2; exit 2; }
-[[ $# -ge 1 ]] || die "give at least one variant TAG=BINARY[:NAME=VALUE,...] (scripts/ab_bench.sh has examples)"
-tags=() bins=() envs=()
+[[ $# -ge 1 ]] || die "give at least one variant TAG=BINARY[:KEY=VALUE,...] (scripts/ab_bench.sh has examples)"
+tags=() bins=() tunes=()
 for v in "$@"; do
-  [[ $v == *=* ]] || die "'$v' is not TAG=BINARY[:NAME=VALUE,...]"
+  [[ $v == *=* ]] || die "'$v' is not TAG=BINARY[:KEY=VALUE,...]"
   tag=${v%%=*} rest=${v#*=}
-  bin=${rest%%:*} env=""
-  [[ $rest == *:* ]] && env=${rest#*:}
+  bin=${rest%%:*} tune=""
+  [[ $rest == *:* ]] && tune=${rest#*:}
   [[ $tag =~ ^[A-Za-z0-9_-]+$ ]] || die "tag '$tag': letters, digits, '-' and '_' only"
   [[ -x $bin ]] || die "$tag: '$bin' is not an executable"
-  tags+=("$tag") bins+=("$bin") envs+=("${env//,/ }")
+  [[ -z $tune || $tune =~ ^[a-z0-9_]+=[^,\ ]+(,[a-z0-9_]+=[^,\ ]+)*$ ]] || die "$tag: '$tune' is not KEY=VALUE,..."
+  tags+=("$tag") bins+=("$bin") tunes+=("$tune")
 done
 for task in ${AB_TASKS:-bench}; do
   [[ $task == bench || $task == probe || $task == same ]] || die "AB_TASKS: unknown task '$task' (bench, probe, same)"
@@ -40,10 +41,14 @@ rounds=${AB_ROUNDS:-2}
 read -r -a extra <<<"${AB_ARGS:-}"
 failed=0
 
-run_variant() {  # run_variant INDEX COMMAND...: the variant's binary with its environment
-  local i=$1
-  shift
-  env ${envs[$i]} "${bins[$i]}" "$@"
+run_variant() {  # run_variant INDEX COMMAND ARGS...: the variant's binary, with its tuning where COMMAND renders
+  local i=$1 cmd=$2
+  shift 2
+  if [[ -n ${tunes[$i]} && ( $cmd == bench || $cmd == render ) ]]; then
+    "${bins[$i]}" "$cmd" --tune "${tunes[$i]}" "$@"
+  else
+    "${bins[$i]}" "$cmd" "$@"
+  fi
 }
 
 for task in ${AB_TASKS:-bench}; do

@@ -186,6 +186,27 @@ def case_options():
     _, _, err = run(penumbra("render", data("no_light.json"), "--backend", "cpu", "-o", work("dark.png")), expect=0)
     if "no light" not in err or "no_light.json" not in err:
         fail(f"a scene without light did not warn:\n{err}")
+    # --tune (the GPU's tuning, every command that makes a backend): a bad key or value is a usage error whose one
+    # line names the key and what it takes, before any work; the cpu backend renders the same image with it.
+    for cmd in (["render", "cornell-sphere", *LONG, "-o", work("x.png")],
+                ["bench", "--backend", "cpu", "--scenes", "cornell-sphere"],
+                ["converge", "cornell-sphere", "--backend", "cpu", "--out", work("cv")],
+                ["view", "cornell-sphere"]):
+        one_line_error(penumbra(*cmd, "--tune", "cuda_occ=11"), ["--tune", "cuda_occ", "0, 10 or 12", "'11'"], rc=2)
+        one_line_error(penumbra(*cmd, "--tune", "shadow_order=sometimes"),
+                       ["shadow_order", "auto, direction or queue"], rc=2)
+        one_line_error(penumbra(*cmd, "--tune", "cuda_ooc=0"), ["--tune", "unknown key 'cuda_ooc'", "cuda_occ"], rc=2)
+        one_line_error(penumbra(*cmd, "--tune", "wavefront_paths"), ["--tune", "'wavefront_paths' is not KEY=VALUE"],
+                       rc=2)
+        one_line_error(penumbra(*cmd, "--tune", "cuda_leaf=4", "--tune", "cuda_block=64"),
+                       ["cuda_block=64 needs cuda_occ=0"], rc=2)
+    small = ["--backend", "cpu", "--spp", "2", "--width", "8", "--height", "6"]
+    run(penumbra("render", "cornell-sphere", *small, "-o", work("untuned.exr")), expect=0)
+    run(penumbra("render", "cornell-sphere", *small, "--tune", "cuda_occ=0,cuda_block=64", "--tune",
+                 "wavefront_paths=4096", "-o", work("tuned.exr")), expect=0)
+    with open(work("untuned.exr"), "rb") as a, open(work("tuned.exr"), "rb") as b:
+        if a.read() != b.read():
+            fail("--tune changed the cpu backend's image")
 
 
 def case_long():

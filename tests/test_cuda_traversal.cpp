@@ -544,73 +544,50 @@ TEST(CudaTraversal, AlphaMasksAgreeWithEmbree) {
   EXPECT_GT(occluder, 1600 / 8);
 }
 
-// An empty scene has nothing to hit.
 // The kernels' forms: flat where the scene is, if-if where rays are long, the FMA box test for shadow rays; the
-// environment overrides each, and a bad value is an error naming its variable.
+// tuning (--tune cuda_loop, cuda_box, cuda_flat) overrides each, and the reason says so.
 TEST(CudaTraversal, TraceFormsFollowTheScene) {
-  for (const char* v : {"PENUMBRA_CUDA_LOOP", "PENUMBRA_CUDA_BOX", "PENUMBRA_CUDA_FLAT"}) unsetenv(v);
-  CudaTraceForms f = choose_trace_forms(true, 46.4);
+  const GpuTuning defaults;
+  CudaTraceForms f = choose_trace_forms(true, 46.4, defaults);
   EXPECT_EQ(f.closest, kBvhFlat | kBvhIfIf);
   EXPECT_EQ(f.shadow, kBvhFlat | kBvhIfIf | kBvhFmaBox);
   EXPECT_EQ(f.reason, "if-if loop (auto: rays visit 46.4 nodes, at least 24), flat scene, FMA box test for shadow rays");
-  f = choose_trace_forms(false, 9.4);
+  f = choose_trace_forms(false, 9.4, defaults);
   EXPECT_EQ(f.closest, 0);
   EXPECT_EQ(f.shadow, 0);
   EXPECT_EQ(f.reason, "while-while loop (auto: rays visit 9.4 nodes, under 24), general form, subtract-multiply box test");
-  f = choose_trace_forms(true, 9.4);
+  f = choose_trace_forms(true, 9.4, defaults);
   EXPECT_EQ(f.closest, kBvhFlat);
   EXPECT_EQ(f.shadow, kBvhFlat | kBvhFmaBox);
-  EXPECT_EQ(choose_trace_forms(true, kIfIfMinVisits).closest & kBvhIfIf, kBvhIfIf);
+  EXPECT_EQ(choose_trace_forms(true, kIfIfMinVisits, defaults).closest & kBvhIfIf, kBvhIfIf);
 
-  setenv("PENUMBRA_CUDA_LOOP", "while", 1);
-  setenv("PENUMBRA_CUDA_BOX", "slab", 1);
-  setenv("PENUMBRA_CUDA_FLAT", "0", 1);
-  f = choose_trace_forms(true, 46.4);
+  const GpuTuning general = parse_gpu_tuning({"cuda_loop=while", "cuda_box=slab", "cuda_flat=0"});
+  f = choose_trace_forms(true, 46.4, general);
   EXPECT_EQ(f.closest, 0);
   EXPECT_EQ(f.shadow, 0);
-  setenv("PENUMBRA_CUDA_LOOP", "ifif", 1);
-  setenv("PENUMBRA_CUDA_BOX", "fma", 1);
-  f = choose_trace_forms(false, 2.0);
+  EXPECT_EQ(f.reason, "while-while loop (cuda_loop=while), general form (cuda_flat=false), subtract-multiply box test "
+                      "(cuda_box=slab)");
+  f = choose_trace_forms(false, 2.0, parse_gpu_tuning({"cuda_loop=ifif", "cuda_box=fma"}));
   EXPECT_EQ(f.closest, kBvhIfIf | kBvhFmaBox);
   EXPECT_EQ(f.shadow, kBvhIfIf | kBvhFmaBox);
-  for (const char* v : {"PENUMBRA_CUDA_LOOP", "PENUMBRA_CUDA_BOX", "PENUMBRA_CUDA_FLAT"}) {
-    setenv(v, "sometimes", 1);
-    try {
-      choose_trace_forms(true, 46.4);
-      ADD_FAILURE() << v << "=sometimes was accepted";
-    } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find(v), std::string::npos) << e.what();
-    }
-    unsetenv(v);
-  }
-  for (const char* v : {"PENUMBRA_CUDA_LOOP", "PENUMBRA_CUDA_BOX", "PENUMBRA_CUDA_FLAT"}) unsetenv(v);
 }
 
-// The build's measurement knobs: read from the environment, a value out of range an error naming the variable.
-TEST(CudaTraversal, BuildKnobsAreCheckedNotIgnored) {
-  setenv("PENUMBRA_CUDA_LEAF", "4", 1);
-  setenv("PENUMBRA_CUDA_SAH_TRI", "2.5", 1);
-  BvhBuildOptions o = BvhBuildOptions::from_environment();
-  EXPECT_EQ(o.leaf_size, 4u);
-  EXPECT_FLOAT_EQ(o.triangle_cost, 2.5f);
-  for (const auto& [name, value] : std::vector<std::pair<const char*, const char*>>{
-           {"PENUMBRA_CUDA_LEAF", "0"}, {"PENUMBRA_CUDA_LEAF", "17"}, {"PENUMBRA_CUDA_LEAF", "4x"},
-           {"PENUMBRA_CUDA_SAH_TRI", "0"}, {"PENUMBRA_CUDA_SAH_TRI", "cheap"}, {"PENUMBRA_CUDA_SAH_TRI", "nan"}}) {
-    unsetenv("PENUMBRA_CUDA_LEAF");
-    unsetenv("PENUMBRA_CUDA_SAH_TRI");
-    setenv(name, value, 1);
-    try {
-      BvhBuildOptions::from_environment();
-      ADD_FAILURE() << name << "=" << value << " was accepted";
-    } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
-    }
-  }
-  unsetenv("PENUMBRA_CUDA_LEAF");
-  unsetenv("PENUMBRA_CUDA_SAH_TRI");
-  o = BvhBuildOptions::from_environment();
-  EXPECT_EQ(o.leaf_size, 8u);
-  EXPECT_FLOAT_EQ(o.triangle_cost, 1.f);
+// The build's measurement knobs reach the build: leaves of at most cuda_leaf references.
+TEST(CudaTraversal, BuildKnobsReachTheBuild) {
+  const GpuTuning t = parse_gpu_tuning({"cuda_leaf=2", "cuda_sah_tri=2.5", "cuda_splits=false"});
+  EXPECT_EQ(t.bvh.leaf_size, 2u);
+  EXPECT_FLOAT_EQ(t.bvh.triangle_cost, 2.5f);
+  EXPECT_FALSE(t.bvh.spatial_splits);
+  const Scene scene = load_scene("cornell-quad", {});
+  const BvhHost b = build_bvh(scene, t.bvh);
+  int leaves = 0;
+  for (const BvhNode& n : b.nodes)
+    for (int32_t c : n.child)
+      if (c < 0 && c != kBvhPop) {
+        EXPECT_LE(bvh_leaf_count(c), 2u);
+        ++leaves;
+      }
+  EXPECT_GT(leaves, 0);
 }
 
 TEST(CudaTraversal, EmptySceneMissesEverything) {

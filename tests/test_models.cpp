@@ -11,7 +11,9 @@
 #include <random>
 #include <sstream>
 
+#include "apps/environment.h"
 #include "render/backend.h"
+#include "render/converge.h"
 #include "scene/scene.h"
 
 namespace pn {
@@ -20,6 +22,14 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 const std::string kData = PENUMBRA_TEST_DATA;
+
+// The test binary reads $PENUMBRA_SCENES and $PENUMBRA_DATA as the applications do (apps/environment.h), once,
+// before any test: where the scenes' data is elsewhere, the built-in scenes' tests find it as `penumbra` would.
+class SceneSearchFromEnvironment : public ::testing::Environment {
+ public:
+  void SetUp() override { set_scene_search(scene_search_from_environment()); }
+};
+::testing::Environment* const kSceneSearch = ::testing::AddGlobalTestEnvironment(new SceneSearchFromEnvironment);
 const std::string kAssimp = "/usr/share/assimp/models";
 
 // A scene placing one model file, with a camera (unless `camera` is false) and a light.
@@ -426,6 +436,23 @@ TEST(Models, FuzzedModelFilesNeverCrash) {
 }
 
 // --- Built-in scenes with models ----------------------------------------------------------
+
+// The applications' folder of scene data is searched first, before the defaults, which stay; converge's default
+// cache follows the XDG convention from the values the applications pass.
+TEST(Models, SceneSearchComesFirstAndTheCacheFollowsXdg) {
+  const SceneSearch saved = scene_search();
+  set_scene_search({"/nonexistent/scenes", "/nonexistent/data"});
+  const std::vector<std::string> roots = scene_data_roots();
+  ASSERT_GE(roots.size(), 3u);
+  EXPECT_EQ(roots.front(), "/nonexistent/scenes");
+  set_scene_search(SceneSearch());
+  EXPECT_EQ(scene_data_roots().size(), roots.size() - 1);
+  EXPECT_EQ(scene_data_roots().front(), roots[1]);
+  set_scene_search(saved);
+  EXPECT_EQ(default_cache_dir("/xdg", "/home/u"), "/xdg/penumbra");
+  EXPECT_EQ(default_cache_dir("", "/home/u"), "/home/u/.cache/penumbra");
+  EXPECT_EQ(default_cache_dir("", ""), ".penumbra-cache");
+}
 
 TEST(Models, BuiltinScenesWithModels) {
   for (const char* name : {"sponza", "bunnies", "glossy"}) {

@@ -328,59 +328,21 @@ TEST(ShadowOrder, PlacesEveryQueryOnceInCellOrder) {
   for (uint32_t j = 0; j < n; ++j) EXPECT_EQ(placed[j], 1u) << j;
 }
 
-// The shadow order's environment: unset is auto, traced forward (from the light only with
-// PENUMBRA_SHADOW_REVERSE=1); a misspelt order is an error that names the variable and the value (the GPU's
-// wavefront reads it before allocating anything).
-TEST(ShadowOrder, EnvironmentSettingAndItsErrors) {
-  EXPECT_EQ(shadow_order_setting(nullptr, nullptr).mode, OrderMode::Auto);
-  EXPECT_FALSE(shadow_order_setting(nullptr, nullptr).reverse);
-  EXPECT_EQ(shadow_order_setting("auto", nullptr).mode, OrderMode::Auto);
-  EXPECT_EQ(shadow_order_setting("direction", "1").mode, OrderMode::Ordered);
-  EXPECT_TRUE(shadow_order_setting("direction", "1").reverse);
-  EXPECT_EQ(shadow_order_setting("queue", nullptr).mode, OrderMode::Queue);
-  EXPECT_FALSE(shadow_order_setting("direction", "0").reverse);
-  for (const char* bad : {"Direction", "", "directions", "1"}) {
-    try {
-      shadow_order_setting(bad, nullptr);
-      ADD_FAILURE() << "no error for '" << bad << "'";
-    } catch (const std::runtime_error& e) {
-      const std::string what = e.what();
-      EXPECT_NE(what.find("PENUMBRA_SHADOW_ORDER"), std::string::npos) << what;
-      EXPECT_NE(what.find(std::string("'") + bad + "'"), std::string::npos) << what;
-      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
-    }
-  }
-  EXPECT_EQ(ray_order_setting(nullptr), OrderMode::Auto);
-  EXPECT_EQ(ray_order_setting("cells"), OrderMode::Ordered);
-  EXPECT_EQ(ray_order_setting("queue"), OrderMode::Queue);
-  for (const char* bad : {"direction", "", "cell"}) {
-    try {
-      ray_order_setting(bad);
-      ADD_FAILURE() << "no error for '" << bad << "'";
-    } catch (const std::runtime_error& e) {
-      const std::string what = e.what();
-      EXPECT_NE(what.find("PENUMBRA_RAY_ORDER must be auto, cells or queue, not '" + std::string(bad) + "'"),
-                std::string::npos)
-          << what;
-    }
-  }
-}
-
 // Whether a queue is ordered, and the reason the GPU prints and bench records: the trace stage's inability first,
-// then the environment, then the scene's rays' length against the threshold.
+// then the tuning (--tune shadow_order, ray_order), then the scene's rays' length against the threshold.
 TEST(QueueOrder, ChoiceAndItsReason) {
   std::string why;
-  EXPECT_FALSE(choose_order(false, "cannot", OrderMode::Ordered, "PENUMBRA_RAY_ORDER", "cell", 50.0, 24.0, &why));
+  EXPECT_FALSE(choose_order(false, "cannot", OrderMode::Ordered, "ray_order", "cell", 50.0, 24.0, &why));
   EXPECT_EQ(why, "queue order (cannot)");
-  EXPECT_TRUE(choose_order(true, "cannot", OrderMode::Ordered, "PENUMBRA_RAY_ORDER", "cell", 2.0, 24.0, &why));
-  EXPECT_EQ(why, "cell order (PENUMBRA_RAY_ORDER)");
-  EXPECT_FALSE(choose_order(true, "cannot", OrderMode::Queue, "PENUMBRA_SHADOW_ORDER", "direction", 50.0, 24.0, &why));
-  EXPECT_EQ(why, "queue order (PENUMBRA_SHADOW_ORDER)");
-  EXPECT_TRUE(choose_order(true, "cannot", OrderMode::Auto, "PENUMBRA_SHADOW_ORDER", "direction", 46.4, 24.0, &why));
+  EXPECT_TRUE(choose_order(true, "cannot", OrderMode::Ordered, "ray_order", "cell", 2.0, 24.0, &why));
+  EXPECT_EQ(why, "cell order (ray_order)");
+  EXPECT_FALSE(choose_order(true, "cannot", OrderMode::Queue, "shadow_order", "direction", 50.0, 24.0, &why));
+  EXPECT_EQ(why, "queue order (shadow_order)");
+  EXPECT_TRUE(choose_order(true, "cannot", OrderMode::Auto, "shadow_order", "direction", 46.4, 24.0, &why));
   EXPECT_EQ(why, "direction order (auto: rays visit 46.4 nodes, at least 24)");
-  EXPECT_FALSE(choose_order(true, "cannot", OrderMode::Auto, "PENUMBRA_RAY_ORDER", "cell", 9.4, 24.0, &why));
+  EXPECT_FALSE(choose_order(true, "cannot", OrderMode::Auto, "ray_order", "cell", 9.4, 24.0, &why));
   EXPECT_EQ(why, "queue order (auto: rays visit 9.4 nodes, under 24)");
-  EXPECT_TRUE(choose_order(true, "cannot", OrderMode::Auto, "PENUMBRA_RAY_ORDER", "cell", 24.0, 24.0, &why));
+  EXPECT_TRUE(choose_order(true, "cannot", OrderMode::Auto, "ray_order", "cell", 24.0, 24.0, &why));
 }
 
 // The bounces' ray order (wavefront.h's RayOrder): a ray's cell is its direction's octahedral cell (8 x 8), then
@@ -419,7 +381,7 @@ TEST(RayOrder, CellsAreDirectionThenOriginCells) {
 }
 
 // The GPU's ordered shadow queries can be traced from the light back (reversed_shadow_ray, with
-// PENUMBRA_SHADOW_REVERSE=1): every built-in scene's shadow queries, made by real paths, get the same answers both
+// --tune shadow_reverse=true): every built-in scene's shadow queries, made by real paths, get the same answers both
 // ways from the cuda traversal's host code (a sample: on the H200 Sponza's image differed by 0.021%, which is why
 // it is off by default).
 struct BothWaysTracer {

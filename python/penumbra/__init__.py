@@ -29,7 +29,7 @@ from ._penumbra import Image  # noqa: E402
 
 __all__ = [
     "BackendError", "ConvergeResult", "Image", "PenumbraError", "Renderer", "Scene", "SceneError", "build_info",
-    "compare", "converge", "converge_plan", "load_scene", "read_exr", "ReferenceChunk", "render",
+    "compare", "converge", "converge_plan", "gpu_tuning_keys", "load_scene", "read_exr", "ReferenceChunk", "render",
     "render_reference_chunk", "scenes", "store_reference",
 ]
 
@@ -123,6 +123,35 @@ def _gpus(gpus: GpusLike) -> str:
     raise TypeError(f"gpus must be 'all', a number of GPUs or a list of GPU indices, not {gpus!r}")
 
 
+GpuTuningLike = Union[None, str, Mapping[str, Any], Sequence[str]]
+"""The GPU's tuning knobs, as ``penumbra render --tune``: a dict of key -> value
+({"cuda_occ": 0, "shadow_order": "queue"}), "KEY=VALUE" strings (a list, or one
+string, comma-separated), or None for the defaults. ``gpu_tuning_keys()`` lists the
+keys (docs/guide.md has the table); the CPU backend ignores them."""
+
+
+def _gpu_tuning(gpu_tuning: GpuTuningLike) -> List[str]:
+    """gpu_tuning as --tune's KEY=VALUE strings (the keys and values are checked by the library)."""
+    if gpu_tuning is None:
+        return []
+    if isinstance(gpu_tuning, str):
+        return [a for a in gpu_tuning.split(",") if a]
+    if isinstance(gpu_tuning, Mapping):
+        def text(v: Any) -> str:
+            return ("true" if v else "false") if isinstance(v, bool) else str(v)
+        return [f"{k}={text(v)}" for k, v in gpu_tuning.items()]
+    if isinstance(gpu_tuning, Sequence) and all(isinstance(a, str) for a in gpu_tuning):
+        return list(gpu_tuning)
+    raise TypeError(f"gpu_tuning must be a dict of key -> value or KEY=VALUE strings, not {gpu_tuning!r}")
+
+
+def gpu_tuning_keys() -> List[Dict[str, str]]:
+    """The GPU's tuning keys (``gpu_tuning=`` of render, Renderer and converge; ``penumbra
+    render --tune``): each a dict with ``key``, ``values`` (the accepted ones), ``default``
+    and ``help``."""
+    return [dict(zip(("key", "values", "default", "help"), k)) for k in _penumbra.gpu_tuning_keys()]
+
+
 def _threads(threads: Optional[int]) -> int:
     if threads is None:
         return 0
@@ -209,7 +238,8 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
            max_depth: Optional[int] = None, backend: str = "auto", mis: Optional[str] = None,
            denoise: bool = False, denoiser: str = "oidn", denoise_quality: str = "high",
            overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
-           gpus: GpusLike = "all", progress: Optional[ProgressFn] = None) -> Image:
+           gpus: GpusLike = "all", gpu_tuning: GpuTuningLike = None,
+           progress: Optional[ProgressFn] = None) -> Image:
     """Renders a scene and returns the image.
 
     Every setting left at None keeps the scene's own value, as on the command
@@ -239,6 +269,8 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
         gpus: the GPUs of the "optix" backend: "all" (default), a number N (the first N)
             or a list of device indices; several split the samples of every pixel
             (the same image; ``image.stats["devices"]`` has each one's share and time).
+        gpu_tuning: the GPU's tuning knobs (GpuTuningLike: a dict such as {"cuda_occ": 0}, as
+            ``penumbra render --tune cuda_occ=0``); a bad key or value raises ValueError naming it.
         progress: called as progress(done, total) while rendering.
 
     Raises:
@@ -253,7 +285,7 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
                            "CPU (denoiser='oidn' denoises on any backend)")
     s = load_scene(scene, overrides)
     r = Renderer(s, backend=backend, strategy=strategy, spp=spp, width=width, height=height, seed=seed,
-                 max_depth=max_depth, mis=mis, threads=threads, gpus=gpus)
+                 max_depth=max_depth, mis=mis, threads=threads, gpus=gpus, gpu_tuning=gpu_tuning)
     if denoise:  # the denoiser's checks (its library, its backend) before rendering
         r._check_denoise(denoiser, denoise_quality)
     img = r.render(r.settings["spp"], progress=progress)
@@ -273,19 +305,21 @@ class Renderer:
     acceleration structures and device data); other scene changes rebuild it
     (``builds`` counts how often). Any change starts the accumulation over.
     ``gpus`` as in render(): with one GPU the image stays on it (DLPack); several
-    split every render() call and the image is accumulated on the host.
+    split every render() call and the image is accumulated on the host. ``gpu_tuning``
+    as in render().
     """
 
     def __init__(self, scene: SceneLike, *, backend: str = "auto", strategy: Optional[str] = None,
                  spp: Optional[int] = None, width: Optional[int] = None, height: Optional[int] = None,
                  seed: Optional[int] = 0, max_depth: Optional[int] = None, mis: Optional[str] = None,
                  overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
-                 gpus: GpusLike = "all"):
+                 gpus: GpusLike = "all", gpu_tuning: GpuTuningLike = None):
+        tuning = _gpu_tuning(gpu_tuning)
         s = scene if isinstance(scene, Scene) else load_scene(scene)
         frame = _frame_overrides(strategy, spp, width, height, seed, max_depth, mis)
         frame.update(overrides or {})
         self._r = _penumbra.Renderer(s._state, _check_backend(backend), _threads(threads), _gpus(gpus),
-                                     _override_list(frame))
+                                     _override_list(frame), tuning)
 
     def render(self, spp: int = 1, *, progress: Optional[ProgressFn] = None) -> Image:
         """Adds ``spp`` samples per pixel and returns the image of all samples so far.
@@ -393,12 +427,13 @@ def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str]
              reference_strategy: str = "solid-angle", reference_mis: str = "power", reference_selection: str = "power",
              reference_chunk: int = 4096, width: Optional[int] = None, height: Optional[int] = None,
              overrides: Optional[Mapping[str, Any]] = None, backend: str = "auto", gpus: GpusLike = "all",
-             threads: Optional[int] = None, cache: Optional[str] = None, out: Optional[str] = None,
+             gpu_tuning: GpuTuningLike = None, threads: Optional[int] = None, cache: Optional[str] = None,
+             out: Optional[str] = None,
              threshold: float = 0.05, crop_spp: int = 32, crop: Optional[Sequence[int]] = None, fit_min_spp: int = 4,
              frame_spp: int = 0, verbose: bool = False, yes: bool = False, estimate_only: bool = False,
              progress: Optional[ProgressFn] = None) -> ConvergeResult:
     """One convergence experiment, as ``penumbra converge`` runs it: a ground truth
-    (cached under ``cache``, default ~/.cache/penumbra; rendered in chunks of
+    (cached under ``cache``, default $XDG_CACHE_HOME/penumbra, else ~/.cache/penumbra; rendered in chunks of
     ``reference_chunk`` spp added in order), then 1, 2, 4, ... max_spp
     spp for each technique (every strategy with every ``mis`` mode; named
     "area" for MIS none, "area+power" otherwise) with ``seeds`` seeds, errors
@@ -406,7 +441,8 @@ def converge(scene: Union[str, "os.PathLike[str]"], *, strategies: Sequence[str]
     summary.json, crops, images).
 
     ``scene`` is a built-in scene's name or a scene file; ``overrides`` as in
-    load_scene; ``gpus`` as in render(). The other arguments are the CLI's options of the same names.
+    load_scene; ``gpus`` and ``gpu_tuning`` as in render(). The other arguments are the CLI's options of the same
+    names.
 
     Before rendering, the run time is estimated from a measured render; on the
     CPU, an estimate over an hour raises ValueError unless ``yes``. With
@@ -433,9 +469,10 @@ def _converge_options(scene: Union[str, "os.PathLike[str]"], options: Mapping[st
     o.scene = os.fspath(scene)
     o.sets = _override_list(a["overrides"])
     o.out = os.fspath(a["out"]) if a["out"] else ""
-    o.cache = os.fspath(a["cache"]) if a["cache"] else ""
+    o.cache = os.fspath(a["cache"]) if a["cache"] else _penumbra.default_cache_dir()
     o.backend = _check_backend(a["backend"])
     o.gpus = _gpus(a["gpus"])
+    o.set_gpu_tuning(_gpu_tuning(a["gpu_tuning"]))
     o.strategies = [a["strategies"]] if isinstance(a["strategies"], str) else list(a["strategies"])
     o.mis = [a["mis"]] if isinstance(a["mis"], str) else list(a["mis"])
     o.reference_strategy = a["reference_strategy"]

@@ -25,6 +25,7 @@
 #include <nanobind/stl/vector.h>
 #include <nanobind/stl/pair.h>
 
+#include "apps/environment.h"
 #include "io/image.h"
 #include "render/compare.h"
 #include "render/converge.h"
@@ -199,6 +200,24 @@ NB_MODULE(_penumbra, m) {
     }
   });
 
+  // The environment, read once at import as `penumbra` reads it (apps/environment.h): where the built-in scenes'
+  // files are (the package sets $PENUMBRA_DATA to its own copy before it imports this module).
+  set_scene_search(scene_search_from_environment());
+  m.def("default_cache_dir", []() { return cache_dir_from_environment(); },
+        "converge's ground-truth cache when none is given: $XDG_CACHE_HOME/penumbra, else ~/.cache/penumbra");
+  // The GPU's tuning keys (render/gpu_tuning.h): (key, values, default, help) each; a tuning is passed as a list
+  // of "KEY=VALUE" (std::invalid_argument: a ValueError naming the key).
+  m.def("gpu_tuning_keys", []() {
+    std::vector<std::vector<std::string>> out;
+    const GpuTuning defaults;
+    for (const GpuTuningKey& k : gpu_tuning_keys())
+      out.push_back({k.key, k.values, gpu_tuning_text(k, defaults), k.help});
+    return out;
+  });
+  m.def("check_gpu_tuning", [](const std::vector<std::string>& assignments) {
+    return to_py(gpu_tuning_json(parse_gpu_tuning(assignments)));
+  });
+
   m.def("scenes", []() {
     std::vector<std::pair<std::string, std::string>> out;
     for (const auto& s : builtin_scenes()) out.emplace_back(s.name, s.description);
@@ -345,13 +364,14 @@ them without a copy to the host.)")
       .def(
           "__init__",
           [](Renderer* self, const PyScene& scene, const std::string& backend, int threads, const std::string& gpus,
-             const std::vector<std::string>& overrides) {
+             const std::vector<std::string>& overrides, const std::vector<std::string>& tuning) {
+            const GpuTuning t = parse_gpu_tuning(tuning);  // a bad key: ValueError, before anything is built
             backend_call([&] {
-              new (self) Renderer(scene.state, backend, threads, gpus, overrides);
+              new (self) Renderer(scene.state, backend, threads, gpus, overrides, t);
               return 0;
             });
           },
-          "scene"_a, "backend"_a, "threads"_a, "gpus"_a, "overrides"_a)
+          "scene"_a, "backend"_a, "threads"_a, "gpus"_a, "overrides"_a, "gpu_tuning"_a = std::vector<std::string>())
       .def("update",
            [](Renderer& r, const std::vector<std::string>& overrides) {
              backend_call([&] {
@@ -490,7 +510,13 @@ them without a copy to the host.)")
       .def_rw("crop", &ConvergeOptions::crop)
       .def_rw("verbose", &ConvergeOptions::verbose)
       .def_rw("yes", &ConvergeOptions::yes)
-      .def_rw("estimate_only", &ConvergeOptions::estimate_only);
+      .def_rw("estimate_only", &ConvergeOptions::estimate_only)
+      .def(
+          "set_gpu_tuning",
+          [](ConvergeOptions& o, const std::vector<std::string>& assignments) {
+            o.tuning = parse_gpu_tuning(assignments);
+          },
+          "assignments"_a, "The GPU's tuning from KEY=VALUE strings (ValueError naming a bad key)");
 
   m.def(
       "converge",

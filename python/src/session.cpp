@@ -112,9 +112,9 @@ const float* ImageData::variance() {
 // --- Renderer --------------------------------------------------------------------------
 
 Renderer::Renderer(const SceneState& scene, std::string backend, int threads, std::string gpus,
-                   const std::vector<std::string>& overrides)
+                   const std::vector<std::string>& overrides, const GpuTuning& tuning)
     : scene_(scene_with_overrides(scene, overrides)), which_(std::move(backend)), threads_(threads),
-      gpus_(std::move(gpus)) {
+      gpus_(std::move(gpus)), tuning_(tuning) {
   check_gpus(gpus_);
   if (which_ != "cpu" && which_ != "optix" && which_ != "auto")
     throw std::invalid_argument("unknown backend '" + which_ + "' (expected cpu, optix or auto)");
@@ -132,6 +132,7 @@ void Renderer::build() {
   BackendOptions opts;
   opts.threads = threads_;
   opts.gpus = gpus_;
+  opts.tuning = tuning_;
   backend_ = make_backend(which_, *scene_.scene, opts, &note_);
 #if PN_HAVE_OPTIX
   optix_ = dynamic_cast<OptixBackend*>(backend_.get());

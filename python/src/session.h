@@ -87,10 +87,10 @@ class Renderer {
  public:
   // `backend`: "cpu", "optix" or "auto"; `gpus`: --gpus ("all", "2", "0,2":
   // several GPUs split every render, and the image comes back through the host);
-  // `overrides` apply to `scene` first. Throws SceneError, std::invalid_argument
-  // (a malformed `gpus`) or std::runtime_error.
+  // `overrides` apply to `scene` first; `tuning`: the GPU's (BackendOptions::tuning).
+  // Throws SceneError, std::invalid_argument (a malformed `gpus`) or std::runtime_error.
   Renderer(const SceneState& scene, std::string backend, int threads, std::string gpus,
-           const std::vector<std::string>& overrides);
+           const std::vector<std::string>& overrides, const GpuTuning& tuning = GpuTuning());
   ~Renderer();
 
   // Applies "key=value" overrides to the scene and restarts the accumulation.
@@ -126,6 +126,7 @@ class Renderer {
   std::string which_, note_;
   int threads_ = 0;
   std::string gpus_;
+  GpuTuning tuning_;
   std::unique_ptr<Backend> backend_;
   OptixBackend* optix_ = nullptr;  // backend_ when it is one GPU: accumulation on the device
   Film film_, pass_;               // on the host (CPU, several GPUs): the accumulation, one call's samples

@@ -203,3 +203,34 @@ def test_build_info():
     assert info["strategies"][:2] == ["area", "solid-angle"]
     if not info["gpu_available"]:
         assert info["gpu_unavailable_reason"]
+
+
+def test_gpu_tuning_reaches_the_library_and_leaves_the_cpu_image_alone():
+    keys = penumbra.gpu_tuning_keys()
+    assert [k["key"] for k in keys][:2] == ["cuda_occ", "cuda_block"]
+    assert {"key", "values", "default", "help"} <= set(keys[0]) and keys[0]["default"] == "10"
+    plain = penumbra.render("cornell-sphere", spp=2, backend="cpu", **SMALL)
+    for tuning in ({"cuda_occ": 0, "cuda_block": 64, "wavefront_fuse": False}, "shadow_order=queue,cuda_leaf=4",
+                   ["ray_order=cells"]):
+        tuned = penumbra.render("cornell-sphere", spp=2, backend="cpu", gpu_tuning=tuning, **SMALL)
+        assert np.array_equal(tuned.rgb, plain.rgb)  # the cpu backend ignores the GPU's knobs
+    r = penumbra.Renderer("cornell-sphere", backend="cpu", gpu_tuning={"wavefront_paths": 4096}, **SMALL)
+    assert np.array_equal(r.render(2).rgb, plain.rgb)
+
+
+@pytest.mark.parametrize("tuning,words", [
+    ({"cuda_occ": 11}, ["cuda_occ", "0, 10 or 12", "'11'"]),
+    ({"shadow_reverse": "yes"}, ["shadow_reverse", "true, false, 1 or 0"]),
+    ("cuda_ooc=0", ["unknown key 'cuda_ooc'", "cuda_occ"]),
+    (["cuda_block=64"], ["cuda_block=64 needs cuda_occ=0"]),
+])
+def test_bad_gpu_tuning_is_a_value_error_naming_the_key(tuning, words):
+    for call in (lambda: penumbra.render("cornell-sphere", spp=1, backend="cpu", gpu_tuning=tuning, **SMALL),
+                 lambda: penumbra.Renderer("cornell-sphere", backend="cpu", gpu_tuning=tuning, **SMALL),
+                 lambda: penumbra.converge_plan("cornell-sphere", backend="cpu", gpu_tuning=tuning)):
+        with pytest.raises(ValueError) as e:
+            call()
+        for w in words:
+            assert w in str(e.value)
+    with pytest.raises(TypeError):
+        penumbra.render("cornell-sphere", spp=1, backend="cpu", gpu_tuning=3, **SMALL)

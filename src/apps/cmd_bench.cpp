@@ -55,6 +55,7 @@ struct BenchArgs {
   int threads = 0;
   bool wavefront = true;  // GPU: the wavefront; --megakernel: false
   std::string traversal = "auto";
+  GpuTuning tuning;       // GPU: --tune
   std::string json_path;
   bool probe = false;              // the trace stage alone (run_probe)
   uint32_t probe_rays = 1u << 22;  // per launch and ray kind
@@ -109,14 +110,16 @@ std::string cpu_model() {
   return "unknown";
 }
 
-// The head of bench's JSON files: the tool, when, which build, on what.
+// The head of bench's JSON files: the tool, when, which build, on what, with which GPU tuning (every key, the
+// defaults included).
 json bench_json(const char* tool, const std::string& device,
-                const std::vector<std::pair<std::string, std::string>>& info) {
+                const std::vector<std::pair<std::string, std::string>>& info, const GpuTuning& tuning) {
   json j;
   j["tool"] = tool;
   j["date"] = utc_now();
   j["git_commit"] = PENUMBRA_GIT_COMMIT;
   j["device"] = device;
+  j["gpu_tuning"] = gpu_tuning_json(tuning);
   json dev = json::object();
   for (const auto& kv : info)
     if (kv.first != "shadow_order" && kv.first != "ray_order") dev[kv.first] = kv.second;  // per scene, below
@@ -185,6 +188,7 @@ int run_probe(const BenchArgs& a) {
   ps.rays = a.probe_rays;
   ps.launches = a.launches ? a.launches : 20;
   ps.warmup = a.warmup >= 0 ? a.warmup : 3;
+  ps.tuning = a.tuning;
   struct Row {
     std::string scene;
     size_t triangles = 0, instances = 0, spheres = 0;
@@ -202,7 +206,9 @@ int run_probe(const BenchArgs& a) {
       std::fprintf(stderr, "bench: skipping %s: %s\n", name.c_str(), e.what());
       continue;
     }
-    std::unique_ptr<Backend> backend = make_optix_backend(scene);
+    BackendOptions opts;
+    opts.tuning = a.tuning;
+    std::unique_ptr<Backend> backend = make_optix_backend(scene, opts);
     auto* ob = dynamic_cast<OptixBackend*>(backend.get());
     if (device.empty()) {
       device = backend->device_name();
@@ -265,7 +271,7 @@ int run_probe(const BenchArgs& a) {
              f.closest_other + f.closest_t_off > n / 5000 || f.shadow_mismatched > n / 5000;
   }
   if (!a.json_path.empty()) {
-    json j = bench_json("penumbra bench --probe", device, info);
+    json j = bench_json("penumbra bench --probe", device, info, a.tuning);
     j["traversal_auto"] = choice;
     j["settings"] = {{"rays_per_launch", ps.rays}, {"warmup_launches", ps.warmup}, {"timed_launches", ps.launches},
                      {"seed", ps.seed}, {"sets", a.sets}};
@@ -397,6 +403,7 @@ int run_bench(const BenchArgs& a) {
     opts.spp_per_launch = a.spp_per_launch;
     opts.wavefront = a.wavefront;
     opts.traversal = a.traversal;
+    opts.tuning = a.tuning;
     std::string note;
     std::unique_ptr<Backend> backend = make_backend(backend_name.empty() ? a.backend : backend_name, scene, opts, &note);
     if (backend_name.empty()) {
@@ -554,7 +561,7 @@ int run_bench(const BenchArgs& a) {
 
   // ---- JSON ----
   if (!a.json_path.empty()) {
-    json j = bench_json("penumbra bench", device_name, info);
+    json j = bench_json("penumbra bench", device_name, info, a.tuning);
     j["backend"] = backend_name;
     j["settings"] = {{"width", W},
                      {"height", H},
@@ -669,6 +676,7 @@ Command add_bench_command(CLI::App& app) {
   sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces")->capture_default_str()->check(CLI::Range(0, 64));
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   add_wavefront_options(sub, &a->wavefront, &a->traversal);
+  add_tune_option(sub, &a->tuning);
   sub->add_option("--json", a->json_path, "Write the results as JSON to this file");
   sub->add_flag("--probe", a->probe,
                 "The trace stage alone: random incoherent rays in each scene's bounds (closest; shadow), traced by "

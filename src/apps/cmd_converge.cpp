@@ -8,6 +8,7 @@
 #include <string>
 
 #include "apps/commands.h"
+#include "apps/environment.h"
 #include "apps/exit_status.h"
 #include "apps/options.h"
 #include "apps/progress.h"
@@ -80,6 +81,7 @@ Command add_converge_command(CLI::App& app) {
   sub->add_option("--backend", a->backend, "cpu, optix or auto")->capture_default_str()->check(CLI::IsMember({"cpu", "optix", "auto"}));
   add_gpus_option(sub, &a->gpus);
   add_wavefront_options(sub, &a->wavefront, &a->traversal);
+  add_tune_option(sub, &a->tuning);
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   sub->add_flag("--yes", a->yes, "Run even when the estimated time on the CPU is more than an hour");
   sub->add_flag("--estimate-only", a->estimate_only,
@@ -88,6 +90,7 @@ Command add_converge_command(CLI::App& app) {
   return {sub, [a]() {
     ConvergeOptions o = *a;
     if (o.out.empty()) o.out = "converge-" + std::filesystem::path(o.scene).stem().string();
+    if (o.cache.empty()) o.cache = cache_dir_from_environment();
     ConvergeResult r;
     try {
       r = run_converge(o);

@@ -29,6 +29,7 @@ struct RenderArgs {
   std::string gpus;
   bool wavefront = true;  // GPU: the wavefront; --megakernel: false
   std::string traversal = "auto";
+  GpuTuning tuning;  // GPU: --tune
   IntegratorOptions integrator;
   // kUnset: not given on the command line, keep the scene's value.
   static constexpr long long kUnset = std::numeric_limits<long long>::min();
@@ -147,6 +148,7 @@ int run_render(const RenderArgs& a) {
   opts.gpus = a.gpus;
   opts.wavefront = a.wavefront;
   opts.traversal = a.traversal;
+  opts.tuning = a.tuning;
   std::string note;
   std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
   if (a.denoise) check_denoise_backend("--denoise", *backend, denoise, note);  // one line: the note goes into it
@@ -242,6 +244,7 @@ Command add_render_command(CLI::App& app) {
       ->allow_extra_args(false);
   add_gpus_option(sub, &a->gpus);
   add_wavefront_options(sub, &a->wavefront, &a->traversal);
+  add_tune_option(sub, &a->tuning);
   sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   sub->add_option("--exposure", a->exposure, "PNG exposure in stops (x 2^stops before sRGB)")
       ->capture_default_str()

@@ -12,6 +12,7 @@
 #include "io/image.h"
 #include "render/backend.h"
 #include "render/denoise.h"
+#include "render/gpu_tuning.h"
 #include "scene/scene.h"
 
 namespace pn {
@@ -166,6 +167,24 @@ void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversa
                   "traversal) or auto (optix where the GPU has RT cores, else cuda; one line says which)")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "optix", "cuda"}));
+}
+
+void add_tune_option(CLI::App* sub, GpuTuning* tuning) {
+  *tuning = GpuTuning();
+  sub->add_option_function<std::vector<std::string>>(
+         "--tune",
+         [tuning](const std::vector<std::string>& items) {
+           try {
+             *tuning = parse_gpu_tuning(items);
+           } catch (const std::invalid_argument& e) {  // one line naming the key: "--tune: cuda_occ must be ..."
+             throw CLI::ValidationError("--tune", e.what());
+           }
+         },
+         "GPU tuning for measurements (repeatable, or comma-separated; the defaults are the measured choices; the "
+         "cpu backend ignores it):" + gpu_tuning_help())
+      ->type_name("KEY=VALUE")
+      ->delimiter(',')
+      ->allow_extra_args(false);
 }
 
 void add_denoise_options(CLI::App* sub, DenoiseArgs* a) {

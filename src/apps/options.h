@@ -38,6 +38,13 @@ void add_gpus_option(CLI::App* sub, std::string* gpus);
 // (BackendOptions::wavefront, ::traversal; backends/optix/WAVEFRONT.md). The cpu backend ignores them.
 void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal);
 
+struct GpuTuning;
+// --tune KEY=VALUE (render, bench, converge, view: every command that makes a backend), repeatable or
+// comma-separated: the GPU's tuning knobs (render/gpu_tuning.h; BackendOptions::tuning), their table in --help.
+// Checked when parsed: a bad key or value is a usage error (exit status 2) whose one line names the key and the
+// accepted values. The cpu backend ignores them.
+void add_tune_option(CLI::App* sub, GpuTuning* tuning);
+
 // --denoiser, --denoise-quality, --denoise-clean-aux and --oidn-library (render, view): which denoiser
 // --denoise uses and how (render/denoise.h). The choices as the command line gave them; denoise_options()
 // turns them into DenoiseOptions, finding Intel Open Image Denoise's library.

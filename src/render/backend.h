@@ -14,6 +14,7 @@
 #include "core/camera.h"
 #include "core/integrator.h"
 #include "render/film.h"
+#include "render/gpu_tuning.h"
 #include "scene/scene.h"
 
 namespace pn {
@@ -141,6 +142,8 @@ struct BackendOptions {
   // "auto" (OptiX where the GPU has RT cores, OPTIX_DEVICE_PROPERTY_RTCORE_VERSION > 0, else cuda).
   bool wavefront = true;
   std::string traversal = "auto";
+  // GPU: the tuning knobs (render/gpu_tuning.h: --tune KEY=VALUE); the defaults are the measured choices.
+  GpuTuning tuning{};
 };
 
 // --gpus: "all", a count N >= 1 (the first N GPUs) or a comma-separated list of

@@ -195,7 +195,7 @@ Setup prepare(const ConvergeOptions& a) {
                (s.ref_selection == LightSelection::Power ? std::string()
                                                          : std::string("|") + light_selection_name(s.ref_selection)) +
                "|" + PENUMBRA_VERSION + "|" + PENUMBRA_GIT_COMMIT);
-  const std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
+  const std::string cache = a.cache.empty() ? default_cache_dir("", "") : a.cache;
   ReferencePlan& r = s.ref;
   r.key = key.str();
   r.path = cache + "/ref-" + r.key + ".exr";
@@ -215,6 +215,7 @@ std::unique_ptr<Backend> backend_for(const ConvergeOptions& a, const Scene& scen
   opts.gpus = a.gpus;
   opts.wavefront = a.wavefront;
   opts.traversal = a.traversal;
+  opts.tuning = a.tuning;
   return make_backend(a.backend, scene, opts, note);
 }
 
@@ -281,7 +282,7 @@ ReferenceChunk render_reference_chunk(const ConvergeOptions& options, int index)
 
 void store_reference(const ConvergeOptions& options, const Film& film) {
   Setup s = prepare(options);
-  check_output_folder(options.cache.empty() ? default_cache_dir() : options.cache, "--cache");
+  check_output_folder(options.cache.empty() ? default_cache_dir("", "") : options.cache, "--cache");
   std::vector<float> mean, var;
   write_reference(s.ref, film, &mean, &var);
 }
@@ -289,7 +290,7 @@ void store_reference(const ConvergeOptions& options, const Film& film) {
 ConvergeResult run_converge(const ConvergeOptions& a) {
   // Outputs first: a folder that cannot be written is found before any work.
   const std::string& out = a.out;  // "": write no files but the cached reference
-  const std::string cache = a.cache.empty() ? default_cache_dir() : a.cache;
+  const std::string cache = a.cache.empty() ? default_cache_dir("", "") : a.cache;
   if (!a.estimate_only) {
     if (!out.empty()) check_output_folder(out, "--out");
     check_output_folder(cache, "--cache");
@@ -617,9 +618,9 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   return result;
 }
 
-std::string default_cache_dir() {
-  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::string(x) + "/penumbra";
-  if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.cache/penumbra";
+std::string default_cache_dir(const std::string& xdg_cache_home, const std::string& home) {
+  if (!xdg_cache_home.empty()) return xdg_cache_home + "/penumbra";
+  if (!home.empty()) return home + "/.cache/penumbra";
   return ".penumbra-cache";
 }
 

@@ -25,7 +25,9 @@ struct ConvergeOptions {
   std::string scene;              // built-in scene name or scene file
   std::vector<std::string> sets;  // "key=value" scene overrides
   std::string out;                // folder for measurements.csv, summary.json, crops, images; "" = none
-  std::string cache;              // ground-truth cache folder; "" = default_cache_dir()
+  // Ground-truth cache folder; the applications fill in default_cache_dir($XDG_CACHE_HOME, $HOME) where not given;
+  // "": .penumbra-cache.
+  std::string cache;
   std::string backend = "auto";
   std::string gpus = "all";  // --gpus: the GPUs that split every render (render/backend.h)
   std::string reference_strategy = "solid-angle", reference_mis = "power";
@@ -47,6 +49,7 @@ struct ConvergeOptions {
   int threads = 0;
   bool wavefront = true;           // GPU: the wavefront (BackendOptions::wavefront); --megakernel: false
   std::string traversal = "auto";  // GPU: --traversal
+  GpuTuning tuning{};              // GPU: --tune (BackendOptions::tuning)
   double threshold = 0.05;
   std::vector<int> crop;  // x, y, w, h; empty: around the light
   bool verbose = true;    // notes and progress bars on stderr
@@ -129,7 +132,10 @@ ConvergeResult run_converge(const ConvergeOptions& options);
 std::string converge_csv_header();
 std::string converge_csv_row(const std::string& scene, const ConvergeMeasurement& m);
 
-// $XDG_CACHE_HOME/penumbra, else ~/.cache/penumbra.
-std::string default_cache_dir();
+// The ground truths' cache folder by the XDG convention: <xdg_cache_home>/penumbra,
+// else <home>/.cache/penumbra, else .penumbra-cache ("": unset). The applications
+// pass $XDG_CACHE_HOME and $HOME (src/apps/environment.h) and fill
+// ConvergeOptions::cache with it; nothing below src/apps reads the environment.
+std::string default_cache_dir(const std::string& xdg_cache_home, const std::string& home);
 
 }  // namespace pn

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <mutex>
 #include <utility>
 
 #include "scene/scene.h"
@@ -156,11 +157,11 @@ std::string scene_data_file(const std::string& rel) {
 }
 
 // A file of this source tree's data/ folder (the glossy scene's sky), or of
-// $PENUMBRA_DATA where that is set (the Python package sets it to its own copy).
+// SceneSearch::data where that is set ($PENUMBRA_DATA; the Python package's own copy).
 std::string source_data_file(const std::string& rel) {
   std::error_code ec;
-  if (const char* env = std::getenv("PENUMBRA_DATA"); env && *env) {
-    std::filesystem::path p = std::filesystem::path(env) / rel;
+  if (const std::string data = scene_search().data; !data.empty()) {
+    std::filesystem::path p = std::filesystem::path(data) / rel;
     if (std::filesystem::is_regular_file(p, ec)) return p.lexically_normal().string();
   }
   std::filesystem::path p = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data" / rel;
@@ -333,9 +334,24 @@ json make_sponza_lanterns() {
 
 }  // namespace
 
+namespace {
+std::mutex g_search_mutex;
+SceneSearch g_search;  // set_scene_search's
+}  // namespace
+
+void set_scene_search(const SceneSearch& search) {
+  std::lock_guard<std::mutex> lock(g_search_mutex);
+  g_search = search;
+}
+
+SceneSearch scene_search() {
+  std::lock_guard<std::mutex> lock(g_search_mutex);
+  return g_search;
+}
+
 std::vector<std::string> scene_data_roots() {
   std::vector<std::string> roots;
-  if (const char* env = std::getenv("PENUMBRA_SCENES"); env && *env) roots.push_back(env);
+  if (const std::string scenes = scene_search().scenes; !scenes.empty()) roots.push_back(scenes);
   roots.push_back((std::filesystem::path(PENUMBRA_SOURCE_DIR) / ".." / "shared" / "scenes").lexically_normal().string());
   roots.push_back((std::filesystem::path("..") / "shared" / "scenes").string());
   return roots;

@@ -224,9 +224,20 @@ struct BuiltinScene {
 const std::vector<BuiltinScene>& builtin_scenes();
 const BuiltinScene* find_builtin(const std::string& name);
 
+// Where the built-in scenes' files are looked for first. The applications set it
+// before any scene is loaded (src/apps/environment.h: $PENUMBRA_SCENES and
+// $PENUMBRA_DATA; the Python module likewise); nothing below src/apps reads the
+// environment. Empty fields: the defaults alone.
+struct SceneSearch {
+  std::string scenes;  // a folder of model data (sponza/, models/), searched before the defaults
+  std::string data;    // a folder of the data/ files (the glossy scene's sky), searched before this source tree's
+};
+void set_scene_search(const SceneSearch& search);
+SceneSearch scene_search();
+
 // Folders searched, in order, for the model data of the built-in scenes that use
-// it (sponza/, models/): $PENUMBRA_SCENES, <source dir>/../shared/scenes,
-// ../shared/scenes (relative to the current directory).
+// it (sponza/, models/): SceneSearch::scenes ($PENUMBRA_SCENES), <source
+// dir>/../shared/scenes, ../shared/scenes (relative to the current directory).
 std::vector<std::string> scene_data_roots();
 
 // The names of strategies, MIS modes and light-selection methods: find_*

@@ -4,24 +4,24 @@
 #
 #   tests/gpu/wavefront_orders.sh PENUMBRA OUT_DIR
 #
-#   - waves: a pool of 5,000 paths (PENUMBRA_WAVEFRONT_PATHS: many waves a launch, pixels cut anywhere, through the
+#   - waves: a pool of 5,000 paths (--tune wavefront_paths: many waves a launch, pixels cut anywhere, through the
 #     launch sums) renders the default pool's image (one wave a launch: straight into the film) byte for byte (the
 #     accumulation sums each pixel's samples in order), with either trace stage;
-#   - the cuda stage's shadow rays traced and applied in one kernel == in two (PENUMBRA_WAVEFRONT_FUSE=0, the same
-#     paths); its trace kernels at 10 resident blocks == at 8 (PENUMBRA_CUDA_OCC=0, byte for byte);
+#   - the cuda stage's shadow rays traced and applied in one kernel == in two (--tune wavefront_fuse=false, the
+#     same paths); its trace kernels at 10 resident blocks == at 8 (--tune cuda_occ=0, byte for byte);
 #   - shadow queries in direction order == queue order (byte for byte traced forward; the same paths within 0.05%
-#     traced from the light, PENUMBRA_SHADOW_REVERSE=1); the bounces' rays in cell order == queue order; the cuda
+#     traced from the light, --tune shadow_reverse=true); the bounces' rays in cell order == queue order; the cuda
 #     traversal's forms (auto) == its general form (byte for byte; Sponza within 0.05%), on cornell-sphere and sponza;
 #   - restir with spatial reuse (its frame passes, stages of the wavefront) agrees with the CPU, with either stage.
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh" wavefront_orders "$@"
 spp=256
-wf() {  # wf NAME SCENE TRAVERSAL: a wavefront render, seed 7, solid-angle + MIS power
-  render "$1" "$2" 7 $spp --backend optix --wavefront --traversal "$3" --strategy solid-angle --mis power
+wf() {  # wf NAME SCENE TRAVERSAL [--tune KEY=VALUE ...]: a wavefront render, seed 7, solid-angle + MIS power
+  render "$1" "$2" 7 $spp --backend optix --wavefront --traversal "$3" --strategy solid-angle --mis power "${@:4}"
 }
 
 for tr in optix cuda; do
   n=cornell-sphere_waves_$tr
-  if wf "${n}_big" cornell-sphere "$tr" && PENUMBRA_WAVEFRONT_PATHS=5000 wf "${n}_small" cornell-sphere "$tr"; then
+  if wf "${n}_big" cornell-sphere "$tr" && wf "${n}_small" cornell-sphere "$tr" --tune wavefront_paths=5000; then
     same_bytes "${n}_big" "${n}_small" "pool of 5000 paths == default pool, byte for byte ($tr)"
   else
     record "waves: renders ($tr)" 1
@@ -29,12 +29,12 @@ for tr in optix cuda; do
 done
 n=cornell-sphere_waves_cuda
 if [[ -f $out/${n}_big.exr ]]; then
-  if PENUMBRA_WAVEFRONT_FUSE=0 wf "${n}_unfused" cornell-sphere cuda; then
+  if wf "${n}_unfused" cornell-sphere cuda --tune wavefront_fuse=false; then
     same_paths "${n}_big" "${n}_unfused" "shadow rays traced and applied in one kernel == in two"
   else
     record "shadow rays in two kernels: render" 1
   fi
-  if PENUMBRA_CUDA_OCC=0 wf "${n}_occ0" cornell-sphere cuda; then
+  if wf "${n}_occ0" cornell-sphere cuda --tune cuda_occ=0; then
     same_bytes "${n}_big" "${n}_occ0" "trace kernels at 10 resident blocks == at 8 (64 registers), byte for byte"
   else
     record "trace kernels at 8 resident blocks: render" 1
@@ -44,9 +44,9 @@ fi
 for scene in cornell-sphere sponza; do
   listed "$scene" || continue
   n=${scene}_shadow_order
-  if PENUMBRA_SHADOW_ORDER=queue wf "${n}_queue" "$scene" cuda &&
-     PENUMBRA_SHADOW_ORDER=direction wf "${n}_forward" "$scene" cuda &&
-     PENUMBRA_SHADOW_ORDER=direction PENUMBRA_SHADOW_REVERSE=1 wf "${n}_reversed" "$scene" cuda; then
+  if wf "${n}_queue" "$scene" cuda --tune shadow_order=queue &&
+     wf "${n}_forward" "$scene" cuda --tune shadow_order=direction &&
+     wf "${n}_reversed" "$scene" cuda --tune shadow_order=direction,shadow_reverse=true; then
     same_bytes "${n}_queue" "${n}_forward" "$scene: shadow rays in direction order == queue order, byte for byte"
     # Traced from the light (opt-in: reversed_shadow_ray's slack hides occluders within 1e-5 of the coordinates
     # of a shading point; 0.021% on Sponza): the same paths, within 0.05%.
@@ -60,7 +60,7 @@ done
 for scene in cornell-sphere sponza; do
   listed "$scene" || continue
   n=${scene}_ray_order
-  if PENUMBRA_RAY_ORDER=queue wf "${n}_queue" "$scene" cuda && PENUMBRA_RAY_ORDER=cells wf "${n}_cells" "$scene" cuda
+  if wf "${n}_queue" "$scene" cuda --tune ray_order=queue && wf "${n}_cells" "$scene" cuda --tune ray_order=cells
   then
     same_bytes "${n}_queue" "${n}_cells" "$scene: the bounces' rays in cell order == queue order, byte for byte"
   else
@@ -72,7 +72,7 @@ for scene in cornell-sphere sponza; do
   listed "$scene" || continue
   n=${scene}_forms
   if wf "${n}_auto" "$scene" cuda &&
-     PENUMBRA_CUDA_LOOP=while PENUMBRA_CUDA_BOX=slab PENUMBRA_CUDA_FLAT=0 wf "${n}_general" "$scene" cuda; then
+     wf "${n}_general" "$scene" cuda --tune cuda_loop=while,cuda_box=slab,cuda_flat=false; then
     if [[ $scene == sponza ]]; then
       # The one-FMA box test rounds differently from the slab test, and Sponza's shading points sit at their own
       # error bound next to walls and floors: some shadow rays from them are decided by that rounding (0.001%).

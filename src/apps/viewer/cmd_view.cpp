@@ -71,6 +71,7 @@ Command add_view_command(CLI::App& app) {
       ->check(CLI::Range(-64.f, 64.f));
   sub->add_option("--threads", a->o.threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
   add_wavefront_options(sub, &a->o.wavefront, &a->o.traversal);
+  add_tune_option(sub, &a->o.tuning);
   sub->add_option("--split", a->o.split, "Start in split screen: LEFT,RIGHT strategies, e.g. area,solid-angle")
       ->check(CLI::Validator(
           [](std::string& v) -> std::string {

@@ -298,6 +298,7 @@ void Viewer::load(const std::vector<std::string>& extra) {
   bo.threads = opt_.threads;
   bo.wavefront = opt_.wavefront;
   bo.traversal = opt_.traversal;
+  bo.tuning = opt_.tuning;
   std::string note;
   std::unique_ptr<Backend> backend = make_backend(opt_.backend, *scene, bo, &note);
   if (!backend_) backend_note_ = note;  // printed once the window is open: a failure to open stays one line

@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "render/gpu_tuning.h"
+
 namespace pn::viewer {
 
 struct ViewerOptions {
@@ -20,6 +22,7 @@ struct ViewerOptions {
   int threads = 0;                  // CPU backend threads; 0 = all
   bool wavefront = true;            // GPU: the wavefront; --megakernel: false
   std::string traversal = "auto";   // GPU: --traversal
+  GpuTuning tuning{};               // GPU: --tune
   std::string split;                // "LEFT,RIGHT": start in split-screen mode
   bool equal_time = false;
   bool hide_panel = false;

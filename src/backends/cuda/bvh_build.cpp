@@ -176,29 +176,7 @@ class Builder {
 
 }  // namespace
 
-// The knobs are for measurements: leaves of up to 8 references (the SAH
-// decides), spatial splits and a triangle test costing a node visit are the
-// defaults. A value out of range is an error naming the variable.
-BvhBuildOptions BvhBuildOptions::from_environment() {
-  BvhBuildOptions o;
-  if (const char* env = std::getenv("PENUMBRA_CUDA_LEAF")) {
-    char* end = nullptr;
-    const long v = std::strtol(env, &end, 10);
-    if (end == env || *end != '\0' || v < 1 || v > long(kMaxLeafSize))
-      throw std::runtime_error("PENUMBRA_CUDA_LEAF must be a whole number in 1.." + std::to_string(kMaxLeafSize) +
-                               ", not '" + env + "'");
-    o.leaf_size = uint32_t(v);
-  }
-  if (const char* env = std::getenv("PENUMBRA_CUDA_SPLITS")) o.spatial_splits = std::strcmp(env, "0") != 0;
-  if (const char* env = std::getenv("PENUMBRA_CUDA_SAH_TRI")) {
-    char* end = nullptr;
-    const float v = std::strtof(env, &end);
-    if (end == env || *end != '\0' || !(v > 0.f && v <= 100.f))
-      throw std::runtime_error(std::string("PENUMBRA_CUDA_SAH_TRI must be a number in (0, 100], not '") + env + "'");
-    o.triangle_cost = v;
-  }
-  return o;
-}
+static_assert(kMaxLeafSize == 16, "render/gpu_tuning.cpp's cuda_leaf accepts 1..16");
 
 BvhView BvhHost::view() const {
   BvhView v;

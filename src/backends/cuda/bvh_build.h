@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "backends/cuda/bvh_layout.h"
+#include "render/gpu_tuning.h"  // BvhBuildOptions
 #include "scene/scene.h"
 
 namespace pn {
@@ -43,15 +44,9 @@ struct BvhHost {
   uint64_t bytes() const;
 };
 
-struct BvhBuildOptions {
-  bool spatial_splits = true;  // in the meshes' trees (PENUMBRA_CUDA_SPLITS=0 turns them off by default)
-  uint32_t leaf_size = 8;      // most triangle references a leaf, 1..kMaxLeafSize (PENUMBRA_CUDA_LEAF)
-  float triangle_cost = 1.f;   // the SAH's cost of a triangle test, a node visit's being 1 (PENUMBRA_CUDA_SAH_TRI)
-  static BvhBuildOptions from_environment();
-};
-
 // Builds the two levels for `scene`. Throws std::runtime_error with one line
 // (Embree failed, the scene is beyond the layout's limits).
-BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options = BvhBuildOptions::from_environment());
+// `options`: GpuTuning::bvh (render/gpu_tuning.h: --tune cuda_leaf, cuda_splits, cuda_sah_tri).
+BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options = BvhBuildOptions());
 
 }  // namespace pn

@@ -3,21 +3,19 @@
 // CPU tests check the choice; the CUDA trace library and the CPU library both use it).
 #pragma once
 
-#include <cstdlib>
-#include <stdexcept>
 #include <string>
 
 #include "backends/cuda/bvh_traverse.h"
 #include "backends/trace_stage.h"
+#include "render/gpu_tuning.h"
 
 namespace pn {
 
 // The forms (bvh_traverse.h's kBvhFlat | kBvhIfIf | kBvhFmaBox bits) for closest-hit and for shadow rays, and
 // why in a few words. By default kBvhFlat where the scene is flat (BvhView::flat); the if-if loop for both where
 // rays are long (BvhStats::sah_visits_per_ray at least kIfIfMinVisits), else while-while; the one-FMA box test
-// for shadow rays in flat scenes. For measurements:
-// PENUMBRA_CUDA_LOOP = auto | while | ifif, PENUMBRA_CUDA_BOX = auto | slab | fma (fma: both kinds of rays),
-// PENUMBRA_CUDA_FLAT = 0 (the general form). Another value is an error naming the variable.
+// for shadow rays in flat scenes. For measurements, GpuTuning (--tune): cuda_loop = auto | while | ifif,
+// cuda_box = auto | slab | fma (fma: both kinds of rays), cuda_flat = false (the general form).
 struct CudaTraceForms {
   int closest = 0;
   int shadow = 0;
@@ -29,39 +27,32 @@ struct CudaTraceForms {
 // cornell-sphere 0.385 -> 0.363; in the general form it spills, and occlusion and bunnies lost 2% at 1080p.
 constexpr double kIfIfMinVisits = 24.0;
 
-// The choice for a BVH whose view is `flat` (BvhView::flat) and whose rays visit `sah_visits_per_ray` nodes.
-inline CudaTraceForms choose_trace_forms(bool flat, double sah_visits_per_ray) {
-  auto setting = [](const char* name, const char* values) {
-    const char* env = std::getenv(name);
-    const std::string v = env ? env : "auto";
-    if (("|" + std::string(values) + "|").find("|" + v + "|") == std::string::npos)
-      throw std::runtime_error(std::string(name) + " must be " + values + ", not '" + v + "'");
-    return v;
-  };
-  const std::string loop = setting("PENUMBRA_CUDA_LOOP", "auto|while|ifif");
-  const std::string box = setting("PENUMBRA_CUDA_BOX", "auto|slab|fma");
-  const std::string flat_setting = setting("PENUMBRA_CUDA_FLAT", "auto|0");
+// The choice for a BVH whose view is `flat` (BvhView::flat) and whose rays visit `sah_visits_per_ray` nodes, as
+// `tuning`'s cuda_loop, cuda_box and cuda_flat say.
+inline CudaTraceForms choose_trace_forms(bool flat, double sah_visits_per_ray, const GpuTuning& tuning) {
   CudaTraceForms f;
-  std::string why = "PENUMBRA_CUDA_LOOP";
-  const bool if_if = loop == "auto" ? rays_are_long(sah_visits_per_ray, kIfIfMinVisits, &why) : loop == "ifif";
+  std::string why = tuning.cuda_loop == CudaLoop::IfIf ? "cuda_loop=ifif" : "cuda_loop=while";
+  const bool if_if = tuning.cuda_loop == CudaLoop::Auto ? rays_are_long(sah_visits_per_ray, kIfIfMinVisits, &why)
+                                                         : tuning.cuda_loop == CudaLoop::IfIf;
   f.reason = std::string(if_if ? "if-if" : "while-while") + " loop (" + why + ")";
   if (if_if) f.closest = f.shadow = kBvhIfIf;
-  if (flat && flat_setting == "auto") {
+  if (flat && tuning.cuda_flat) {
     f.closest |= kBvhFlat;
     f.shadow |= kBvhFlat;
     f.reason += ", flat scene";
   } else {
-    f.reason += flat ? ", general form (PENUMBRA_CUDA_FLAT=0)" : ", general form";
+    f.reason += flat ? ", general form (cuda_flat=false)" : ", general form";
   }
   // The FMA box test keeps o / d's products live beside o: where the flat form frees registers, shadow rays gain
   // by it; closest hits (more state) and the general form spill for it and lose.
-  const bool fma_shadow = box == "auto" ? (f.shadow & kBvhFlat) != 0 : box == "fma";
+  const CudaBox box = tuning.cuda_box;
+  const bool fma_shadow = box == CudaBox::Auto ? (f.shadow & kBvhFlat) != 0 : box == CudaBox::Fma;
   if (fma_shadow) f.shadow |= kBvhFmaBox;
-  if (box == "fma") f.closest |= kBvhFmaBox;
-  f.reason += box == "slab"  ? ", subtract-multiply box test (PENUMBRA_CUDA_BOX)"
-              : box == "fma" ? ", FMA box test (PENUMBRA_CUDA_BOX)"
-              : fma_shadow   ? ", FMA box test for shadow rays"
-                             : ", subtract-multiply box test";
+  if (box == CudaBox::Fma) f.closest |= kBvhFmaBox;
+  f.reason += box == CudaBox::Slab  ? ", subtract-multiply box test (cuda_box=slab)"
+              : box == CudaBox::Fma ? ", FMA box test (cuda_box=fma)"
+              : fma_shadow          ? ", FMA box test for shadow rays"
+                                    : ", subtract-multiply box test";
   return f;
 }
 

@@ -15,8 +15,6 @@
 namespace pn {
 namespace {
 
-int block_size() { return cuda_trace_block_size(); }
-
 void check(cudaError_t e, const char* what) {
   if (e != cudaSuccess)
     throw std::runtime_error(std::string("cuda traversal: ") + what + ": " + cudaGetErrorString(e));
@@ -29,7 +27,7 @@ __device__ __forceinline__ Ray load_ray(const TraceRay* rays, uint32_t i, float*
   return Ray(Vec3(a.x, a.y, a.z), Vec3(b.x, b.y, b.z));
 }
 
-// kMinBlocks: the resident blocks an SM the launch bound asks for (cuda_trace_min_blocks); 0 asks for none
+// kMinBlocks: the resident blocks an SM the launch bound asks for (GpuTuning::cuda_occ); 0 asks for none
 // (registers as needed).
 template <int kMinBlocks, int kForm>
 __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks)
@@ -74,22 +72,23 @@ T* upload(const std::vector<T>& v, void** slot, uint64_t* bytes) {
   return static_cast<T*>(*slot);
 }
 
-unsigned blocks(uint32_t count) { return unsigned((count + block_size() - 1) / block_size()); }
-
-// The kernels as compiled for cuda_trace_min_blocks() resident blocks an SM.
+// The kernels as compiled for `shape.min_blocks` resident blocks an SM, in blocks of shape.block_size threads
+// over `count` rays.
 template <class... A>
-void launch_closest(unsigned grid, cudaStream_t s, int form, A... a) {
-  with_trace_min_blocks([&](auto b) {
+void launch_closest(const CudaTraceShape& shape, uint32_t count, cudaStream_t s, int form, A... a) {
+  const unsigned grid = unsigned((count + shape.block_size - 1) / shape.block_size);
+  with_trace_min_blocks(shape.min_blocks, [&](auto b) {
     with_trace_form(form, [&](auto f) {
-      closest_kernel<decltype(b)::value, decltype(f)::value><<<grid, block_size(), 0, s>>>(a...);
+      closest_kernel<decltype(b)::value, decltype(f)::value><<<grid, shape.block_size, 0, s>>>(a...);
     });
   });
 }
 template <class... A>
-void launch_shadow(unsigned grid, cudaStream_t s, int form, A... a) {
-  with_trace_min_blocks([&](auto b) {
+void launch_shadow(const CudaTraceShape& shape, uint32_t count, cudaStream_t s, int form, A... a) {
+  const unsigned grid = unsigned((count + shape.block_size - 1) / shape.block_size);
+  with_trace_min_blocks(shape.min_blocks, [&](auto b) {
     with_trace_form(form, [&](auto f) {
-      shadow_kernel<decltype(b)::value, decltype(f)::value><<<grid, block_size(), 0, s>>>(a...);
+      shadow_kernel<decltype(b)::value, decltype(f)::value><<<grid, shape.block_size, 0, s>>>(a...);
     });
   });
 }
@@ -97,36 +96,29 @@ void launch_shadow(unsigned grid, cudaStream_t s, int form, A... a) {
 }  // namespace
 
 // Resident blocks of 128 threads an SM the kernels are compiled for: 10 (48 registers, a few spilled), or
-// PENUMBRA_CUDA_OCC = 0 (as many registers as they take, 64: 8 blocks) or 12 (40 registers). The traversal waits on
+// cuda_occ = 0 (as many registers as they take, 64: 8 blocks) or 12 (40 registers). The traversal waits on
 // dependent node loads, and more warps hide more of that: on the H200, Sponza 10.93 -> 10.69 ms a sample at 10
 // blocks (10.70 at 12), cornell-sphere 1.934 -> 1.943 (1.99 at 12); random rays in Sponza 1.73 -> 1.67 ms closest,
-// 1.76 -> 1.68 shadow.
-int cuda_trace_min_blocks() {
-  static const int b = [] {
-    const char* env = std::getenv("PENUMBRA_CUDA_OCC");
-    if (!env) return 10;
-    const std::string v = env;
-    if (v == "0" || v == "10" || v == "12") return std::stoi(v);
-    throw std::runtime_error("PENUMBRA_CUDA_OCC must be 0, 10 or 12 (resident blocks an SM), not '" + v + "'");
-  }();
-  return b;
+// 1.76 -> 1.68 shadow. Threads a block: 128 unless cuda_block (32..256, a multiple of 32; with cuda_occ = 0 only,
+// parse_gpu_tuning checks) says otherwise.
+CudaTraceShape cuda_trace_shape(const GpuTuning& tuning) {
+  CudaTraceShape shape;
+  if (tuning.cuda_occ != 0 && tuning.cuda_occ != 10 && tuning.cuda_occ != 12)
+    throw std::runtime_error("cuda_occ must be 0, 10 or 12 (resident blocks an SM), not " +
+                             std::to_string(tuning.cuda_occ));
+  shape.min_blocks = tuning.cuda_occ;
+  const int b = tuning.cuda_block;
+  if (b != 128 && !(b >= 32 && b <= cuda_trace_max_threads(0) && b % 32 == 0 && shape.min_blocks == 0))
+    throw std::runtime_error("cuda_block=" + std::to_string(b) + " needs cuda_occ=0 and a multiple of 32 in 32.." +
+                             std::to_string(cuda_trace_max_threads(0)));
+  shape.block_size = b;
+  return shape;
 }
 
-// Threads per block: 128 unless PENUMBRA_CUDA_BLOCK (32..256, a multiple of 32) says otherwise (tuning; not with
-// PENUMBRA_CUDA_OCC, whose kernels are compiled for 128).
-int cuda_trace_block_size() {
-  static const int b = [] {
-    const char* env = std::getenv("PENUMBRA_CUDA_BLOCK");
-    const int v = env ? std::atoi(env) : 128;
-    return (v >= 32 && v <= cuda_trace_max_threads(0) && v % 32 == 0 && cuda_trace_min_blocks() == 0) ? v : 128;
-  }();
-  return b;
-}
-
-CudaTraversal::CudaTraversal(const BvhHost& bvh) : stats_(bvh.stats) {
-  cuda_trace_block_size();  // reads PENUMBRA_CUDA_OCC and _BLOCK now: a bad value stops here, before any launch
+CudaTraversal::CudaTraversal(const BvhHost& bvh, const GpuTuning& tuning)
+    : stats_(bvh.stats), shape_(cuda_trace_shape(tuning)) {  // a bad shape stops here, before any allocation
   view_ = bvh.view();
-  forms_ = choose_trace_forms(view_.flat, stats_.sah_visits_per_ray);
+  forms_ = choose_trace_forms(view_.flat, stats_.sah_visits_per_ray, tuning);
   try {
     view_.nodes = upload(bvh.nodes, &buffers_[0], &bytes_);
     view_.triangles = upload(bvh.triangles, &buffers_[1], &bytes_);
@@ -147,7 +139,7 @@ void CudaTraversal::trace_closest(const TraceRay* rays, uint32_t count, HitRecor
                                   void* stream) const {
   if (count == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_closest(blocks(count), s, forms_.closest, view_, scene, rays, count, nullptr, hits, nullptr);
+  launch_closest(shape_, count, s, forms_.closest, view_, scene, rays, count, nullptr, hits, nullptr);
   check(cudaGetLastError(), "launching the closest-hit kernel");
 }
 
@@ -155,7 +147,7 @@ void CudaTraversal::trace_shadow(const TraceRay* rays, uint32_t count, uint32_t*
                                  const SceneView& scene, void* stream) const {
   if (count == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_shadow(blocks(count), s, forms_.shadow, view_, scene, rays, count, nullptr, blocked_bits);
+  launch_shadow(shape_, count, s, forms_.shadow, view_, scene, rays, count, nullptr, blocked_bits);
   check(cudaGetLastError(), "launching the shadow kernel");
 }
 
@@ -163,7 +155,7 @@ void CudaTraversal::trace_closest(const TraceRay* rays, const uint32_t* device_c
                                   HitRecord* hits, const SceneView& scene, void* stream, const uint32_t* order) const {
   if (capacity == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_closest(blocks(capacity), s, forms_.closest, view_, scene, rays, capacity, device_count, hits, order);
+  launch_closest(shape_, capacity, s, forms_.closest, view_, scene, rays, capacity, device_count, hits, order);
   check(cudaGetLastError(), "launching the closest-hit kernel");
 }
 
@@ -171,7 +163,7 @@ void CudaTraversal::trace_shadow(const TraceRay* rays, const uint32_t* device_co
                                  uint32_t* blocked_bits, const SceneView& scene, void* stream) const {
   if (capacity == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
-  launch_shadow(blocks(capacity), s, forms_.shadow, view_, scene, rays, capacity, device_count, blocked_bits);
+  launch_shadow(shape_, capacity, s, forms_.shadow, view_, scene, rays, capacity, device_count, blocked_bits);
   check(cudaGetLastError(), "launching the shadow kernel");
 }
 

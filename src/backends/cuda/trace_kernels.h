@@ -13,18 +13,22 @@
 namespace pn {
 
 // The trace kernels' launch bound, threads a block, where they are compiled for `min_blocks` resident blocks an SM
-// (cuda_trace_min_blocks): 128 where that is above 0, else the most PENUMBRA_CUDA_BLOCK may ask for.
+// (GpuTuning::cuda_occ): 128 where that is above 0, else the most cuda_block may ask for.
 constexpr int cuda_trace_max_threads(int min_blocks) { return min_blocks ? 128 : 256; }
-// Threads a block of the trace kernels (PENUMBRA_CUDA_BLOCK, 128), for kernels elsewhere that trace too.
-int cuda_trace_block_size();
-// Resident blocks of 128 threads an SM the kernels are compiled for (10; PENUMBRA_CUDA_OCC: 0, as many registers
-// as they take, or 12; another value is an error naming the variable), for kernels elsewhere that trace too.
-int cuda_trace_min_blocks();
-// Calls f(std::integral_constant<int, B>()) for B = cuda_trace_min_blocks(): a kernel template on B launched inside
-// f (with cuda_trace_block_size() threads, 128 for B > 0) is the variant the run asks for.
+// How the trace kernels launch, for kernels elsewhere that trace too: compiled for min_blocks resident blocks of
+// 128 threads an SM (GpuTuning::cuda_occ: 10; 0, as many registers as they take, or 12), in blocks of block_size
+// threads (GpuTuning::cuda_block: 128).
+struct CudaTraceShape {
+  int min_blocks = 10;
+  int block_size = 128;
+};
+// The shape `tuning` asks for. Throws std::runtime_error with one line naming the key for one it cannot launch.
+CudaTraceShape cuda_trace_shape(const GpuTuning& tuning);
+// Calls f(std::integral_constant<int, B>()) for B = min_blocks (CudaTraceShape::min_blocks): a kernel template on B
+// launched inside f (with CudaTraceShape::block_size threads, 128 for B > 0) is the variant the run asks for.
 template <class F>
-void with_trace_min_blocks(F&& f) {
-  switch (cuda_trace_min_blocks()) {
+void with_trace_min_blocks(int min_blocks, F&& f) {
+  switch (min_blocks) {
     case 10: f(std::integral_constant<int, 10>()); break;
     case 12: f(std::integral_constant<int, 12>()); break;
     default: f(std::integral_constant<int, 0>()); break;
@@ -48,8 +52,9 @@ void with_trace_form(int form, F&& f) {
 
 class CudaTraversal {
  public:
-  // Uploads the BVH to the current device. Throws std::runtime_error with one line.
-  explicit CudaTraversal(const BvhHost& bvh);
+  // Uploads the BVH to the current device; its kernels launch as `tuning` says (cuda_occ, cuda_block; the forms:
+  // cuda_loop, cuda_box, cuda_flat). Throws std::runtime_error with one line.
+  CudaTraversal(const BvhHost& bvh, const GpuTuning& tuning);
   ~CudaTraversal();
   CudaTraversal(const CudaTraversal&) = delete;
   CudaTraversal& operator=(const CudaTraversal&) = delete;
@@ -74,6 +79,7 @@ class CudaTraversal {
 
   const BvhView& device_view() const { return view_; }  // the BVH in device memory, for kernels of other stages
   const CudaTraceForms& forms() const { return forms_; }  // how its kernels trace (for kernels of other stages)
+  const CudaTraceShape& shape() const { return shape_; }  // how its kernels launch (for kernels of other stages)
   uint64_t device_bytes() const { return bytes_; }
   const BvhStats& stats() const { return stats_; }
 
@@ -82,6 +88,7 @@ class CudaTraversal {
   void* buffers_[5] = {};
   uint64_t bytes_ = 0;
   BvhStats stats_;
+  CudaTraceShape shape_;
   CudaTraceForms forms_;
 };
 

@@ -70,11 +70,11 @@ ProbeResult run_trace_probe(const Scene& scene, OptixBackend& optix, const Probe
   if (s.rays == 0 || s.launches < 1) throw std::runtime_error("bench --probe: needs rays and at least one launch");
   ProbeResult r;
   r.rays = s.rays;
-  const BvhHost host = build_bvh(scene);
+  const BvhHost host = build_bvh(scene, s.tuning.bvh);
   r.bvh = host.stats;
   r.bvh_bytes = host.bytes();
   const auto t1 = std::chrono::steady_clock::now();
-  CudaTraversal cuda(host);
+  CudaTraversal cuda(host, s.tuning);
   r.cuda_form = cuda.forms().reason;
   r.upload_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
 

@@ -18,6 +18,7 @@ struct ProbeSettings {
   int warmup = 3;
   int launches = 20;
   uint32_t seed = 0;
+  GpuTuning tuning{};  // the cuda traversal's BVH and kernels (BackendOptions::tuning; the optix backend's own)
 };
 
 // Median launch times of one implementation.

@@ -82,8 +82,8 @@ __forceinline__ __device__ void set_hit_payload(float t, uint32_t instance, uint
 }
 
 // Thread t of the launch's T threads takes pixels t, t + T, t + 2T, ...: one
-// pixel each by default (a W x H or a 1D launch; PENUMBRA_OPTIX_LAUNCH and
-// PENUMBRA_OPTIX_PIXELS_PER_THREAD tune this), params.spp samples of each,
+// pixel each by default (a W x H or a 1D launch; GpuTuning::optix_launch and
+// ::optix_pixels_per_thread tune this), params.spp samples of each,
 // summed with their squares.
 //
 // One raygen program per strategy (the PN_STRATEGIES registry) and MIS on or

@@ -38,40 +38,29 @@ using namespace optix;  // the backend's parts: context.h, device_memory.h, acce
 
 // ---- The backend -------------------------------------------------------------------
 
-// Measured on the H100 (software traversal): see src/backends/optix/NOTES.md.
-constexpr SphereMode kDefaultSphereMode = SphereMode::Custom;
-// A W x H launch measured faster than a 1D one on the target scene (NOTES.md).
-constexpr bool kDefaultLaunch2d = true;
-
 class OptixBackendImpl final : public OptixBackend {
  public:
-  OptixBackendImpl(const Scene& scene, const BackendOptions& options) : scene_(scene) {
+  OptixBackendImpl(const Scene& scene, const BackendOptions& options) : scene_(scene), tuning_(options.tuning) {
     const Availability& a = availability();
     if (!a.ok) throw std::runtime_error(a.why);
     spp_per_launch_ = std::max(0, options.spp_per_launch);
     device_ = options.device;
-    // Tuning knobs (see NOTES.md): threads per pixel and launch shape.
-    if (const char* env = std::getenv("PENUMBRA_OPTIX_PIXELS_PER_THREAD")) pixels_per_thread_ = std::max(1, std::atoi(env));
-    if (const char* env = std::getenv("PENUMBRA_OPTIX_LAUNCH")) launch_2d_ = std::string(env) != "1d";
+    // Tuning knobs (NOTES.md; the defaults there measured): pixels a thread and launch shape, and how spheres are
+    // intersected (custom: measured on the H100, software traversal).
+    pixels_per_thread_ = std::max(1, tuning_.optix_pixels_per_thread);
+    launch_2d_ = tuning_.optix_launch == OptixLaunch::Grid2d;
+    sphere_mode_ = tuning_.optix_spheres == OptixSpheres::Builtin ? SphereMode::Builtin : SphereMode::Custom;
     size_.meshes = scene.meshes.size();
     size_.instances = scene.instances.size();
     size_.spheres = scene.spheres.size();
     for (const Instance& inst : scene.instances)
       if (inst.mesh < scene.meshes.size()) size_.triangles += scene.meshes[inst.mesh].indices.size();
-    sphere_mode_ = kDefaultSphereMode;
-    if (const char* env = std::getenv("PENUMBRA_OPTIX_SPHERES")) {
-      std::string v = env;
-      if (v == "builtin") sphere_mode_ = SphereMode::Builtin;
-      else if (v == "custom") sphere_mode_ = SphereMode::Custom;
-      else if (!v.empty())
-        throw std::runtime_error("PENUMBRA_OPTIX_SPHERES must be 'builtin' or 'custom', not '" + v + "'");
-    }
     try {
       init_device();
       build_stats_.valid = true;
       build_stats_.device_used_before = device_memory_used();
       check_device_memory();
-      pipeline_.build(context_, scene_.features(), sphere_mode_, size_, build_stats_);
+      pipeline_.build(context_, scene_.features(), sphere_mode_, tuning_.optix_maxreg, size_, build_stats_);
       const PlacedSceneView placed = build_scene_view(scene_, device_scene_);
       build_stats_.scene_bytes = device_scene_.buffer_bytes();
       build_stats_.texture_bytes = device_scene_.texture_bytes();
@@ -361,9 +350,8 @@ class OptixBackendImpl final : public OptixBackend {
                  rt > 0 ? "RT cores" : "no RT cores");
     std::unique_ptr<WavefrontTraceStage> stage;
     if (choice == "optix") stage = std::make_unique<OptixTraceStage>(*this);
-    else stage = make_cuda_trace_stage(scene_, base_params_.scene);
-    wavefront_ = std::make_unique<WavefrontGpu>(std::move(stage), wavefront_default_paths(),
-                                                props_.multiProcessorCount);
+    else stage = make_cuda_trace_stage(scene_, base_params_.scene, tuning_);
+    wavefront_ = std::make_unique<WavefrontGpu>(std::move(stage), tuning_, props_.multiProcessorCount);
     std::fprintf(stderr, "wavefront on GPU %d: shadow rays in %s; the bounces' rays in %s\n", device_,
                  wavefront_->shadow_order_reason().c_str(), wavefront_->ray_order_reason().c_str());
     if (!wavefront_->traversal_form().empty())
@@ -514,12 +502,13 @@ class OptixBackendImpl final : public OptixBackend {
   }
 
   const Scene& scene_;
+  GpuTuning tuning_;  // BackendOptions::tuning
   SceneSize size_;
   SphereMode sphere_mode_ = SphereMode::Custom;
   int spp_per_launch_ = 0;
   int device_ = 0;  // the CUDA device
   int pixels_per_thread_ = 1;
-  bool launch_2d_ = kDefaultLaunch2d;
+  bool launch_2d_ = true;
 
   cudaDeviceProp props_ = {};
   std::string gpu_name_, driver_;

@@ -67,7 +67,7 @@ class OptixBackend : public Backend {
 // make_backend builds one per GPU that --gpus selects). Throws std::runtime_error with one
 // line (no GPU or driver, OptiX ABI not supported by the driver, out of GPU
 // memory with the scene's size, any failed CUDA or OptiX call).
-// PENUMBRA_OPTIX_SPHERES=builtin|custom overrides how spheres are intersected.
+// options.tuning (render/gpu_tuning.h) tunes it: optix_spheres, optix_launch, the wavefront's keys, ...
 std::unique_ptr<Backend> make_optix_backend(const Scene& scene);
 std::unique_ptr<Backend> make_optix_backend(const Scene& scene, const BackendOptions& options);
 

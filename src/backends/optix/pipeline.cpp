@@ -34,13 +34,12 @@ using EmptyRecord = SbtRecord<Empty>;
 
 }  // namespace
 
-void Pipeline::build(OptixDeviceContext context, uint32_t features, SphereMode sphere_mode, const SceneSize& size,
-                     SceneBuildStats& stats) {
+void Pipeline::build(OptixDeviceContext context, uint32_t features, SphereMode sphere_mode, int max_registers,
+                     const SceneSize& size, SceneBuildStats& stats) {
   release();
   context_ = context;
   OptixModuleCompileOptions mco = {};
-  mco.maxRegisterCount = OPTIX_COMPILE_DEFAULT_MAX_REGISTER_COUNT;
-  if (const char* env = std::getenv("PENUMBRA_OPTIX_MAXREG")) mco.maxRegisterCount = std::atoi(env);  // tuning
+  mco.maxRegisterCount = max_registers > 0 ? max_registers : OPTIX_COMPILE_DEFAULT_MAX_REGISTER_COUNT;  // tuning
   mco.optLevel = OPTIX_COMPILE_OPTIMIZATION_DEFAULT;
   mco.debugLevel = OPTIX_COMPILE_DEBUG_LEVEL_MINIMAL;
 

@@ -22,9 +22,10 @@ class Pipeline {
  public:
   // Compiles and links the programs for a scene of `features` (SceneFeature
   // bits): its raygens are those of the smallest feature level covering them.
-  // Adds the compile time to `stats`.
-  void build(OptixDeviceContext context, uint32_t features, SphereMode spheres, const SceneSize& size,
-             SceneBuildStats& stats);
+  // `max_registers`: the module's register limit (GpuTuning::optix_maxreg; 0:
+  // OptiX's default). Adds the compile time to `stats`.
+  void build(OptixDeviceContext context, uint32_t features, SphereMode spheres, int max_registers,
+             const SceneSize& size, SceneBuildStats& stats);
   void release();
   OptixPipeline get() const { return pipeline_; }
   uint32_t feature_level() const { return feature_level_; }  // index into kFeatureLevels

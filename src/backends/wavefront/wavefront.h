@@ -44,6 +44,7 @@
 #include "core/camera.h"
 #include "core/integrator.h"
 #include "core/restir.h"
+#include "render/gpu_tuning.h"  // OrderMode
 
 namespace pn {
 
@@ -190,35 +191,11 @@ PN_FN uint32_t ray_order_cell(const RayOrder& o, const Ray& r) {
   return octahedral_cell(r.d, kRayDirectionBits) << (3 * kRayOriginBits) | morton;
 }
 
-// The queue orders' environment (measurement knobs): PENUMBRA_SHADOW_ORDER = auto (unset: the same) | direction |
-// queue, PENUMBRA_SHADOW_REVERSE = 1 to trace ordered queries from the light back (reversed_shadow_ray: faster on
-// Sponza, and biased there; off by default), PENUMBRA_RAY_ORDER = auto | cells | queue.
-// Any other order is an error naming the variable and the value.
-enum class OrderMode { Auto, Ordered, Queue };
-inline OrderMode order_mode(const char* variable, const char* value, const char* ordered) {
-  const std::string v = value ? value : "auto";
-  if (v == ordered) return OrderMode::Ordered;
-  if (v == "queue") return OrderMode::Queue;
-  if (v != "auto")
-    throw std::runtime_error(std::string(variable) + " must be auto, " + ordered + " or queue, not '" + v + "'");
-  return OrderMode::Auto;
-}
-struct ShadowOrderSetting {
-  OrderMode mode = OrderMode::Auto;
-  bool reverse = false;
-};
-inline ShadowOrderSetting shadow_order_setting(const char* order, const char* reverse) {
-  ShadowOrderSetting s;
-  s.mode = order_mode("PENUMBRA_SHADOW_ORDER", order, "direction");
-  s.reverse = reverse && std::string(reverse) == "1";
-  return s;
-}
-inline OrderMode ray_order_setting(const char* order) { return order_mode("PENUMBRA_RAY_ORDER", order, "cells"); }
-
 // Whether a queue is traced in the order of a key, and why in a few words ("cell order (auto: rays visit 46.4 nodes,
-// at least 24)"): never where the trace stage cannot (`unable` says why), as the environment's `variable` says where
-// it says, else where the scene's rays visit at least `min_visits` nodes. `ordered`: the order's name.
-inline bool choose_order(bool able, const char* unable, OrderMode mode, const char* variable, const char* ordered,
+// at least 24)"): never where the trace stage cannot (`unable` says why), as `mode` says where it is not Auto (the
+// tuning key `key`: GpuTuning::shadow_order, ::ray_order), else where the scene's rays visit at least `min_visits`
+// nodes. `ordered`: the order's name.
+inline bool choose_order(bool able, const char* unable, OrderMode mode, const char* key, const char* ordered,
                          double visits, double min_visits, std::string* reason) {
   if (!able) {
     *reason = std::string("queue order (") + unable + ")";
@@ -226,7 +203,7 @@ inline bool choose_order(bool able, const char* unable, OrderMode mode, const ch
   }
   if (mode != OrderMode::Auto) {
     const bool on = mode == OrderMode::Ordered;
-    *reason = std::string(on ? ordered : "queue") + " order (" + variable + ")";
+    *reason = std::string(on ? ordered : "queue") + " order (" + key + ")";
     return on;
   }
   std::string why;
@@ -247,7 +224,7 @@ inline bool choose_order(bool able, const char* unable, OrderMode mode, const ch
 // older integer offset put them near the slack's 1e-5), the slack is the larger of the two, and Sponza's image
 // traced this way was 0.021% brighter than traced forward with the same paths (H200, 128 x 72, 256 spp): occluders
 // that close to a shading point are real there (walls meeting floors). So this is off by default
-// (PENUMBRA_SHADOW_REVERSE=1 turns it on); it wants a slack from each ray's own cosine and bound to come back.
+// (--tune shadow_reverse=true turns it on); it wants a slack from each ray's own cosine and bound to come back.
 PN_FN Ray reversed_shadow_ray(const Ray& r, float* tmax) {
   if (!(*tmax < kInf)) return r;
   const Vec3 far = r.o + r.d * *tmax;
@@ -586,7 +563,7 @@ inline uint32_t restir_chunk_pixels(const WavefrontView& w, uint32_t max_rays) {
   if (max_rays > w.capacity)
     throw std::invalid_argument("restir: a wavefront pool of " + std::to_string(w.capacity) +
                                 " paths holds less than one pixel's " + std::to_string(max_rays) +
-                                " shadow queries (PENUMBRA_WAVEFRONT_PATHS sets the GPU's pool)");
+                                " shadow queries (--tune wavefront_paths sets the GPU's pool)");
   return max_rays ? w.capacity / max_rays : w.capacity;
 }
 

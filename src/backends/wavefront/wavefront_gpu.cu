@@ -305,8 +305,8 @@ __global__ void __launch_bounds__(kBlock) shade_replay_kernel(RestirChunk c, con
 // The cuda traversal as the trace stage.
 class CudaTraceStage final : public WavefrontTraceStage {
  public:
-  CudaTraceStage(const Scene& scene, const SceneView& device_scene)
-      : traversal_(build_bvh(scene)), scene_(device_scene), box_(scene_bounds(scene)) {}
+  CudaTraceStage(const Scene& scene, const SceneView& device_scene, const GpuTuning& tuning)
+      : traversal_(build_bvh(scene, tuning.bvh), tuning), scene_(device_scene), box_(scene_bounds(scene)) {}
   void bind(const Queues& q) override { q_ = q; }
   void closest(int queue, void* stream) override {
     traversal_.trace_closest(q_.closest_rays[queue], q_.closest_count[queue], q_.capacity, q_.hits, scene_, stream);
@@ -315,7 +315,8 @@ class CudaTraceStage final : public WavefrontTraceStage {
     traversal_.trace_shadow(q_.shadow_rays, q_.shadow_count, q_.capacity, q_.blocked_bits, scene_, stream);
   }
   bool shadow_apply(const WavefrontView* view, bool ordered, void* stream) override {
-    launch_shadow_apply(traversal_.device_view(), traversal_.forms().shadow, scene_, view, q_.capacity, ordered, stream);
+    launch_shadow_apply(traversal_.device_view(), traversal_.forms().shadow, traversal_.shape().min_blocks,
+                        traversal_.shape().block_size, scene_, view, q_.capacity, ordered, stream);
     return true;
   }
   bool offers_shadow_apply() const override { return true; }
@@ -395,33 +396,24 @@ WavefrontView carve(char* base, uint32_t capacity, uint64_t* bytes) {
 
 }  // namespace
 
-uint32_t wavefront_default_paths() {
-  if (const char* env = std::getenv("PENUMBRA_WAVEFRONT_PATHS")) {
-    const long long v = std::atoll(env);
-    if (v >= 1024 && v <= (1ll << 26)) return uint32_t(v);
-    throw std::runtime_error("PENUMBRA_WAVEFRONT_PATHS must be a number of paths from 1024 to 67108864, not '" +
-                             std::string(env) + "'");
-  }
-  return 1u << 21;
+std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, const SceneView& device_scene,
+                                                           const GpuTuning& tuning) {
+  return std::make_unique<CudaTraceStage>(scene, device_scene, tuning);
 }
 
-std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, const SceneView& device_scene) {
-  return std::make_unique<CudaTraceStage>(scene, device_scene);
-}
-
-WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t capacity, int num_sms)
-    : trace_(std::move(trace)), capacity_(capacity), num_sms_(num_sms > 0 ? num_sms : 1) {
-  // The environment's shadow order first: a bad value throws before anything is allocated.
-  const ShadowOrderSetting setting =
-      shadow_order_setting(std::getenv("PENUMBRA_SHADOW_ORDER"), std::getenv("PENUMBRA_SHADOW_REVERSE"));
-  const OrderMode ray_setting = ray_order_setting(std::getenv("PENUMBRA_RAY_ORDER"));
+WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, const GpuTuning& tuning, int num_sms)
+    : trace_(std::move(trace)), capacity_(tuning.wavefront_paths), num_sms_(num_sms > 0 ? num_sms : 1),
+      fuse_shadow_(tuning.wavefront_fuse), film_direct_(tuning.wavefront_film), graph_allowed_(tuning.wavefront_graph) {
+  if (capacity_ < 1024 || capacity_ > (1u << 26))
+    throw std::runtime_error("wavefront_paths must be a number of paths in 1024..67108864, not " +
+                             std::to_string(capacity_));
   carve(nullptr, capacity_, &bytes_);
   size_t free_bytes = 0, total = 0;
   check(cudaMemGetInfo(&free_bytes, &total), "cudaMemGetInfo");
   if (bytes_ + sizeof(WaveSpec) > free_bytes)
     throw std::runtime_error("wavefront: the pool of " + std::to_string(capacity_) + " paths needs " +
                              std::to_string(bytes_ >> 20) + " MiB, the GPU has " + std::to_string(free_bytes >> 20) +
-                             " MiB free (PENUMBRA_WAVEFRONT_PATHS sets a smaller pool)");
+                             " MiB free (--tune wavefront_paths sets a smaller pool)");
   check(cudaMalloc(&memory_, bytes_), "allocating the path pool");
   if (cudaMalloc(&wave_, sizeof(WaveSpec)) != cudaSuccess ||
       cudaMalloc(&view_device_, sizeof(WavefrontView)) != cudaSuccess) {
@@ -432,20 +424,14 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   view_ = carve(static_cast<char*>(memory_), capacity_, &bytes_);
   view_.wave = static_cast<const WaveSpec*>(wave_);
   bytes_ += sizeof(WaveSpec) + sizeof(WavefrontView);
-  // PENUMBRA_WAVEFRONT_FUSE=0: shadow rays traced, then applied by a kernel of their own, with either traversal.
-  const char* fuse = std::getenv("PENUMBRA_WAVEFRONT_FUSE");
-  fuse_shadow_ = !(fuse && std::string(fuse) == "0");
-  // PENUMBRA_WAVEFRONT_FILM=0: every launch through the launch sums and launch_accumulate.
-  const char* film = std::getenv("PENUMBRA_WAVEFRONT_FILM");
-  film_direct_ = !(film && std::string(film) == "0");
   // The shadow queue traced in direction order where rays are long (kShadowOrderMinVisits), always, or never
-  // (`setting`, from the environment). Only the fused shadow stage reads the order.
+  // (tuning.shadow_order). Only the fused shadow stage reads the order.
   const double visits = trace_->sah_visits_per_ray();
   order_shadow_ = choose_order(fuse_shadow_ && trace_->offers_shadow_apply(),
-                               "the trace stage does not fuse tracing and applying shadow rays", setting.mode,
-                               "PENUMBRA_SHADOW_ORDER", "direction", visits, kShadowOrderMinVisits, &order_reason_);
-  if (order_shadow_ && setting.reverse) order_reason_ += ", traced from the light (PENUMBRA_SHADOW_REVERSE=1)";
-  view_.shadow_order.reverse = setting.reverse ? 1u : 0u;
+                               "the trace stage does not fuse tracing and applying shadow rays", tuning.shadow_order,
+                               "shadow_order", "direction", visits, kShadowOrderMinVisits, &order_reason_);
+  if (order_shadow_ && tuning.shadow_reverse) order_reason_ += ", traced from the light (shadow_reverse)";
+  view_.shadow_order.reverse = tuning.shadow_reverse ? 1u : 0u;
   if (order_shadow_) {
     check(cudaMemset(view_.shadow_order.cell_count, 0, kShadowCells * sizeof(uint32_t)), "the direction cells");
   } else {
@@ -454,7 +440,7 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t 
   // The bounces' rays traced by direction and origin where rays are long (kRayOrderMinVisits), always, or never.
   Vec3 lo, hi;
   order_rays_ = choose_order(trace_->offers_closest_order(&lo, &hi), "the trace stage traces no other order",
-                             ray_setting, "PENUMBRA_RAY_ORDER", "cell", visits, kRayOrderMinVisits,
+                             tuning.ray_order, "ray_order", "cell", visits, kRayOrderMinVisits,
                              &ray_order_reason_);
   if (order_rays_) {
     view_.ray_order.lo = lo;
@@ -621,12 +607,8 @@ bool WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, ui
   const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
   const uint64_t items = uint64_t(pixels) * spp;
   if (items == 0) return false;
-  // PENUMBRA_WAVEFRONT_GRAPH=0: launch each wave's kernels directly (to tell a graph's fault from a kernel's).
-  static const bool graph_allowed = [] {
-    const char* env = std::getenv("PENUMBRA_WAVEFRONT_GRAPH");
-    return !(env && std::string(env) == "0");
-  }();
-  const bool use_graph = graph_allowed && trace_->capturable();
+  // wavefront_graph=false: launch each wave's kernels directly (to tell a graph's fault from a kernel's).
+  const bool use_graph = graph_allowed_ && trace_->capturable();
   const ShadeKernelKey shade = shade_kernel_key(frame.integrator);
   if (use_graph && (!exec_ || graph_level_ != feature_level || graph_depth_ != frame.integrator.max_depth ||
                     !(graph_shade_ == shade)))

@@ -74,9 +74,11 @@ struct RestirFrameBuffers {
   Reservoir* history = nullptr;
 };
 
-// The cuda traversal (backends/cuda) as a wavefront's trace stage: builds and uploads the scene's BVH.
-// device_scene: the device SceneView (alpha masks). Throws std::runtime_error with one line.
-std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, const SceneView& device_scene);
+// The cuda traversal (backends/cuda) as a wavefront's trace stage: builds and uploads the scene's BVH (as `tuning`
+// says: its bvh, the cuda_* keys). device_scene: the device SceneView (alpha masks). Throws std::runtime_error with
+// one line.
+std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, const SceneView& device_scene,
+                                                           const GpuTuning& tuning);
 
 // Which shading kernel a wave launches (wavefront_gpu.cu: one compiled per strategy and MIS class where lights are
 // chosen simply, one for any configuration).
@@ -85,11 +87,12 @@ struct ShadeKernelKey {
   bool operator==(const ShadeKernelKey& o) const { return strategy == o.strategy && mis == o.mis; }
 };
 
-// A wavefront of `capacity` paths on the current CUDA device. Throws std::runtime_error with one line (out of
-// memory: the pool's size and PENUMBRA_WAVEFRONT_PATHS named).
+// A wavefront of tuning.wavefront_paths paths on the current CUDA device, run as `tuning` says (its wavefront_*,
+// shadow_order, shadow_reverse and ray_order keys). Throws std::runtime_error with one line (out of memory: the
+// pool's size and --tune wavefront_paths named).
 class WavefrontGpu {
  public:
-  WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, uint32_t capacity, int num_sms);
+  WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, const GpuTuning& tuning, int num_sms);
   ~WavefrontGpu();
   WavefrontGpu(const WavefrontGpu&) = delete;
   WavefrontGpu& operator=(const WavefrontGpu&) = delete;
@@ -135,10 +138,11 @@ class WavefrontGpu {
   void* memory_ = nullptr;     // every array of the pool, one allocation
   void* wave_ = nullptr;       // the WaveSpec in device memory
   WavefrontView* view_device_ = nullptr;  // view_ in device memory, its RestirFrame the render call's
-  bool fuse_shadow_ = true;    // the trace stage's shadow_apply where offered (PENUMBRA_WAVEFRONT_FUSE=0: never)
+  bool fuse_shadow_ = true;    // the trace stage's shadow_apply where offered (wavefront_fuse=false: never)
   bool order_shadow_ = false;  // the shadow queue traced by direction (ShadowOrder): with shadow_apply only
   bool order_rays_ = false;    // the bounces' ray queues traced by direction and origin (RayOrder): closest_ordered
-  bool film_direct_ = true;    // render()'s film where given (PENUMBRA_WAVEFRONT_FILM=0: never)
+  bool film_direct_ = true;    // render()'s film where given (wavefront_film=false: never)
+  bool graph_allowed_ = true;  // a wave's kernels through a CUDA graph where the stage is capturable (wavefront_graph)
   void* graph_ = nullptr;      // cudaGraph_t
   void* exec_ = nullptr;       // cudaGraphExec_t
   uint32_t graph_level_ = 0;
@@ -149,18 +153,14 @@ class WavefrontGpu {
   std::string ray_order_reason_;
 };
 
-// Where PENUMBRA_SHADOW_ORDER is auto (its default), the shadow queries are ordered by direction when rays in the
+// Where shadow_order is auto (its default), the shadow queries are ordered by direction when rays in the
 // scene visit at least this many nodes (BvhStats::sah_visits_per_ray). Measured on the H200 (commit
 // a01e762; its docs/results are in git history), ms a 1080p sample, queue -> direction order: sponza (46 visits)
 // 10.56 -> 9.70,
 // sponza-lanterns (50) 12.81 -> 12.11; cornell-sphere (9.4) 1.94 -> 2.09, glossy (2) +3%, bunnies (14) +0.4%,
 // many-spheres (18, many lights) +2%; occlusion (16) -7%, a gain this rule misses.
 constexpr double kShadowOrderMinVisits = 24.0;
-// The same for the bounces' closest-hit rays (PENUMBRA_RAY_ORDER=auto).
+// The same for the bounces' closest-hit rays (ray_order=auto).
 constexpr double kRayOrderMinVisits = 24.0;
-
-// The default pool: one slot per pixel of a 1920 x 2048 frame (2^21: 1080p in one wave at one sample per pixel);
-// PENUMBRA_WAVEFRONT_PATHS overrides it.
-uint32_t wavefront_default_paths();
 
 }  // namespace pn

@@ -28,16 +28,16 @@ __global__ void __launch_bounds__(cuda_trace_max_threads(kMinBlocks), kMinBlocks
 
 }  // namespace
 
-void launch_shadow_apply(const BvhView& bvh, int form, const SceneView& scene, const WavefrontView* view,
-                         uint32_t capacity, bool ordered, void* stream) {
+void launch_shadow_apply(const BvhView& bvh, int form, int min_blocks, int block_size, const SceneView& scene,
+                         const WavefrontView* view, uint32_t capacity, bool ordered, void* stream) {
   // One thread a slot, as the trace kernels (grids held to a few waves of resident blocks were measured on the
   // H200: Sponza 11.65 -> 11.85 ms a sample at four waves, 12.6 at one; the tail of long rays then waits).
-  const unsigned threads = unsigned(cuda_trace_block_size());
+  const unsigned threads = unsigned(block_size);
   const unsigned blocks = (capacity + threads - 1) / threads;
   if (blocks == 0) return;
   cudaStream_t s = static_cast<cudaStream_t>(stream);
   // Compiled for the trace kernels' occupancy (trace_kernels.h).
-  with_trace_min_blocks([&](auto b) {
+  with_trace_min_blocks(min_blocks, [&](auto b) {
     with_trace_form(form, [&](auto f) {
       shadow_apply_kernel<decltype(b)::value, decltype(f)::value><<<blocks, threads, 0, s>>>(bvh, scene, view,
                                                                                             ordered);

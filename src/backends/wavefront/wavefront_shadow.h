@@ -15,8 +15,9 @@ namespace pn {
 // after a CUDA graph holding this launch is recorded); `capacity` bounds the shadow queue's device count.
 // `ordered`: the queue's ShadowOrder holds this queue's order (wavefront.h); its queries are then traced in that
 // order, each from the light's end back (reversed_shadow_ray) where ShadowOrder::reverse says so.
-// `form`: the traversal's form for shadow rays (CudaTraversal::forms().shadow, bvh_traverse.h).
-void launch_shadow_apply(const BvhView& bvh, int form, const SceneView& scene, const WavefrontView* view,
-                         uint32_t capacity, bool ordered, void* stream);
+// `form`: the traversal's form for shadow rays (CudaTraversal::forms().shadow, bvh_traverse.h); `min_blocks` and
+// `block_size`: how its trace kernels launch (CudaTraversal::shape(), trace_kernels.h), which this one follows.
+void launch_shadow_apply(const BvhView& bvh, int form, int min_blocks, int block_size, const SceneView& scene,
+                         const WavefrontView* view, uint32_t capacity, bool ordered, void* stream);
 
 }  // namespace pn
