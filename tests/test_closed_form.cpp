@@ -183,10 +183,8 @@ struct Verdict {
   double rel_error = 0, std_error = 0, mean_z2 = 0;
 };
 
-Verdict check_against_exact(const Case& c, const std::string& strategy, const std::string& mis, uint32_t seed) {
-  Case scaled = c;
-  scaled.spp = std::max(2, int(std::lround(c.spp * spp_scale())));
-  const Scene s = parse_scene(scene_json(scaled, strategy, mis, seed), "closed_form.json", ".");
+// A scene rendered at its spp by the backend the environment names (the header says which).
+Film render_scene(const Scene& s) {
   std::string note;
   BackendOptions options;
   options.traversal = env_or("PENUMBRA_TEST_TRAVERSAL", "auto");
@@ -194,6 +192,13 @@ Verdict check_against_exact(const Case& c, const std::string& strategy, const st
   auto backend = make_backend(env_or("PENUMBRA_TEST_BACKEND", "cpu"), s, options, &note);
   Film film(s.render.width, s.render.height);
   backend->render(frame_spec(s), film, 0, uint32_t(s.render.spp));
+  return film;
+}
+
+Verdict check_against_exact(const Case& c, const std::string& strategy, const std::string& mis, uint32_t seed) {
+  Case scaled = c;
+  scaled.spp = std::max(2, int(std::lround(c.spp * spp_scale())));
+  const Film film = render_scene(parse_scene(scene_json(scaled, strategy, mis, seed), "closed_form.json", "."));
   const std::vector<float> mean = film.mean(), var = film.variance_of_mean();
   const std::vector<double> exact = exact_image(c);
   double sum = 0, sum_exact = 0, sum_var = 0, z2 = 0;
@@ -312,17 +317,9 @@ json lone_plane_scene(int max_depth) {
   return sc;
 }
 
-std::vector<float> render_mean(const json& doc) {
-  const Scene s = parse_scene(doc, "lone_plane.json", ".");
-  std::string note;
-  BackendOptions options;
-  options.traversal = env_or("PENUMBRA_TEST_TRAVERSAL", "auto");
-  options.wavefront = env_or("PENUMBRA_TEST_MEGAKERNEL", "0") == std::string("0");
-  auto backend = make_backend(env_or("PENUMBRA_TEST_BACKEND", "cpu"), s, options, &note);
-  Film film(s.render.width, s.render.height);
-  const uint32_t spp = uint32_t(std::max(1.0, std::round(s.render.spp * spp_scale())));
-  backend->render(frame_spec(s), film, 0, spp);
-  return film.mean();
+std::vector<float> render_mean(json doc) {
+  doc["render"]["spp"] = std::max(1, int(std::lround(doc["render"]["spp"].get<int>() * spp_scale())));
+  return render_scene(parse_scene(doc, "lone_plane.json", ".")).mean();
 }
 
 TEST(LonePlane, ABounceNeverFindsThePlaneItLeft) {
