@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <iterator>
 #include <stdexcept>
 
 namespace pn {
@@ -51,6 +52,30 @@ template <bool GpuTuning::*F>
 json bool_value(const GpuTuning& t) {
   return t.*F;
 }
+
+// An enum's keys: kNames[i] names the value E(i).
+constexpr const char* kLoopNames[] = {"auto", "while", "ifif"};
+constexpr const char* kBoxNames[] = {"auto", "slab", "fma"};
+constexpr const char* kLaunchNames[] = {"2d", "1d"};
+constexpr const char* kSphereNames[] = {"custom", "builtin"};
+
+template <class E, E GpuTuning::*F, const char* const* kNames, size_t kCount>
+std::string parse_enum(GpuTuning& t, const std::string& text) {
+  for (size_t i = 0; i < kCount; ++i)
+    if (text == kNames[i]) {
+      t.*F = E(i);
+      return "";
+    }
+  std::string why = "must be ";
+  for (size_t i = 0; i < kCount; ++i) why += std::string(i == 0 ? "" : i + 1 == kCount ? " or " : ", ") + kNames[i];
+  return why;
+}
+template <class E, E GpuTuning::*F, const char* const* kNames, size_t kCount>
+json enum_value(const GpuTuning& t) {
+  return json(std::string(kNames[size_t(t.*F)]));
+}
+#define PN_ENUM_KEY(E, field, names) \
+  parse_enum<E, &GpuTuning::field, names, std::size(names)>, enum_value<E, &GpuTuning::field, names, std::size(names)>
 
 // OrderMode's names: Ordered's is the key's own ("direction", "cells").
 std::string order_text(OrderMode m, const char* ordered) {
@@ -108,27 +133,11 @@ const std::vector<GpuTuningKey> kKeys = {
      [](const GpuTuning& t) { return json(double(t.bvh.triangle_cost)); }},
     {"cuda_loop", "auto, while or ifif",
      "the cuda traversal's loop: auto is if-if where the scene's rays visit at least 24 nodes, else while-while",
-     [](GpuTuning& t, const std::string& s) -> std::string {
-       const int i = choice(s, {"auto", "while", "ifif"});
-       if (i < 0) return "must be auto, while or ifif";
-       t.cuda_loop = CudaLoop(i);
-       return "";
-     },
-     [](const GpuTuning& t) { return json(std::string(t.cuda_loop == CudaLoop::Auto    ? "auto"
-                                                      : t.cuda_loop == CudaLoop::While ? "while"
-                                                                                       : "ifif")); }},
+     PN_ENUM_KEY(CudaLoop, cuda_loop, kLoopNames)},
     {"cuda_box", "auto, slab or fma",
      "the cuda traversal's box test: auto is the one-FMA test for shadow rays in flat scenes; fma for every ray; "
      "slab (subtract-multiply) for every ray",
-     [](GpuTuning& t, const std::string& s) -> std::string {
-       const int i = choice(s, {"auto", "slab", "fma"});
-       if (i < 0) return "must be auto, slab or fma";
-       t.cuda_box = CudaBox(i);
-       return "";
-     },
-     [](const GpuTuning& t) { return json(std::string(t.cuda_box == CudaBox::Auto   ? "auto"
-                                                      : t.cuda_box == CudaBox::Slab ? "slab"
-                                                                                    : "fma")); }},
+     PN_ENUM_KEY(CudaBox, cuda_box, kBoxNames)},
     {"cuda_flat", kBool, "the cuda traversal's flat form where the scene is flat (false: the general form always)",
      parse_bool<&GpuTuning::cuda_flat>, bool_value<&GpuTuning::cuda_flat>},
     {"optix_maxreg", "0..255", "the OptiX module's register limit (0: OptiX's default)",
@@ -149,25 +158,11 @@ const std::vector<GpuTuningKey> kKeys = {
      },
      [](const GpuTuning& t) { return json(t.optix_pixels_per_thread); }},
     {"optix_launch", "2d or 1d", "the megakernel's launch shape: W x H, or W*H x 1",
-     [](GpuTuning& t, const std::string& s) -> std::string {
-       const int i = choice(s, {"2d", "1d"});
-       if (i < 0) return "must be 2d or 1d";
-       t.optix_launch = OptixLaunch(i);
-       return "";
-     },
-     [](const GpuTuning& t) { return json(std::string(t.optix_launch == OptixLaunch::Grid2d ? "2d" : "1d")); }},
+     PN_ENUM_KEY(OptixLaunch, optix_launch, kLaunchNames)},
     {"optix_spheres", "custom or builtin",
      "how OptiX intersects spheres: custom (core/geometry.h in an intersection program) or builtin (OptiX's "
      "sphere primitives)",
-     [](GpuTuning& t, const std::string& s) -> std::string {
-       const int i = choice(s, {"custom", "builtin"});
-       if (i < 0) return "must be custom or builtin";
-       t.optix_spheres = OptixSpheres(i);
-       return "";
-     },
-     [](const GpuTuning& t) {
-       return json(std::string(t.optix_spheres == OptixSpheres::Custom ? "custom" : "builtin"));
-     }},
+     PN_ENUM_KEY(OptixSpheres, optix_spheres, kSphereNames)},
     {"wavefront_paths", "1024..67108864",
      "the wavefront's pool of paths: a launch runs as waves of at most this many (2^21: 1080p at one "
      "sample a pixel in one wave)",
@@ -212,6 +207,8 @@ std::string key_list() {
   for (const GpuTuningKey& k : kKeys) s += std::string(s.empty() ? "" : ", ") + k.key;
   return s;
 }
+
+#undef PN_ENUM_KEY
 
 }  // namespace
 
