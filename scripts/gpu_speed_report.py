@@ -65,6 +65,19 @@ def main(out):
             lines.append(f"| {r['scene']} | {r['triangles']:,} | {o['closest_grays']:.2f} | {o['shadow_grays']:.2f} | "
                          f"{c['closest_grays']:.2f} | {c['shadow_grays']:.2f} | {r['cuda_over_optix_closest']:.2f}x | "
                          f"{r['cuda_over_optix_shadow']:.2f}x | {r.get('cuda_form', '')} |")
+        surface = [r for r in p["results"] if "surface_rays" in r]
+        if surface:
+            lines += ["", "## Rays that leave surfaces: do the two trace stages agree?", "",
+                      "A bounce and a shadow ray from each of as many uniform surface points, offset as hits are "
+                      "(`bench --probe`, traced once). A self-hit is a ray finding the triangle it leaves (a vertex "
+                      "where there is none, the path sent through the surface); `bench --probe` exits 3 above 1 in "
+                      "100,000.", "",
+                      "| scene | self-hits OptiX | self-hits cuda | closest: ties | closest: other | shadow mismatched |",
+                      "| --- | ---: | ---: | ---: | ---: | ---: |"]
+            for r in surface:
+                f = r["surface_rays"]
+                lines.append(f"| {r['scene']} | {f['self_hits_optix']:,} | {f['self_hits_cuda']:,} | "
+                             f"{f['closest_ties']:,} | {f['closest_other']:,} | {f['shadow_mismatched']:,} |")
     lines += ["", "Files: `bench_<path>.json` (every launch's spread, trace and accumulation times, ray counts, "
               "scene builds), `probe.json` (both trace stages' times and their agreement on every ray).", ""]
     with open(os.path.join(out, "README.md"), "w") as f:
