@@ -14,6 +14,7 @@
 #include <stb/stb_image.h>
 #include <tinyexr.h>
 
+#include "core/texture.h"
 #include "render/resources.h"
 
 namespace pn {
@@ -40,8 +41,6 @@ bool size_ok(int w, int h, std::string* error) {
   }
   return true;
 }
-
-float srgb_decode(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
 // Radiance is finite and never negative: channels that are not become 0.
 // Returns how many texels had one.
@@ -512,7 +511,7 @@ bool decode_image_memory(const uint8_t* data, size_t size, bool want_float, Deco
   out->texels.resize(size_t(w) * h * 16);
   float* f = reinterpret_cast<float*>(out->texels.data());
   for (size_t i = 0; i < size_t(w) * h * 4; ++i)
-    f[i] = (i % 4 == 3) ? rgba[i] / 255.f : srgb_decode(rgba[i] / 255.f);
+    f[i] = (i % 4 == 3) ? rgba[i] / 255.f : srgb_to_linear(rgba[i] / 255.f);  // as textures decode (core)
   return true;
 }
 
