@@ -29,7 +29,7 @@
 #include "io/image.h"
 #include "render/compare.h"
 #include "render/converge.h"
-#include "session.h"
+#include "objects.h"
 #if PN_HAVE_OPTIX
 #include "backends/optix/optix_backend.h"
 #include "device_image.h"

@@ -1,4 +1,4 @@
-#include "session.h"
+#include "objects.h"
 
 #include <chrono>
 #include <filesystem>
