@@ -14,7 +14,7 @@ CHILD = textwrap.dedent("""
     import penumbra
     # A process started with SIGINT ignored (a shell's background job without job control: `cmd &` in a script)
     # passes that on, and Python then installs no KeyboardInterrupt handler: install it, as an interactive
-    # session has it.
+    # interpreter has it.
     signal.signal(signal.SIGINT, signal.default_int_handler)
     backend, width, height, spp = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
     r = penumbra.Renderer("cornell-sphere", backend=backend, width=width, height=height)
