@@ -55,11 +55,14 @@ std::string describe(const Ray& r) {
   return buf;
 }
 
+// Both answers go to *embree and *cuda where given (instance kTraceMiss: a miss).
 void compare_closest(const RayQueries& ref, const BvhView& bvh, const SceneView& view, const Ray& ray, float tmax,
-                     Agreement* a) {
+                     Agreement* a, HitRecord* embree = nullptr, HitRecord* cuda = nullptr) {
   ++a->rays;
   HitRecord e, c;
   const bool he = ref.intersect(ray, tmax, &e), hc = bvh_intersect(bvh, &view, ray, tmax, &c);
+  if (embree) *embree = e, embree->instance = he ? e.instance : kTraceMiss;
+  if (cuda) *cuda = c, cuda->instance = hc ? c.instance : kTraceMiss;
   if (!he && !hc) return;
   if (he != hc) {
     ++a->other;
@@ -181,11 +184,10 @@ void check_scene(const Scene& scene) {
     for (size_t i = 0; i < sr.closest.size(); ++i) {
       const TraceRay& r = sr.closest[i];
       const Ray ray(r.o, r.d);
-      compare_closest(*ref, bvh, host->view, ray, r.tmax, &surface);
       HitRecord e, c;
-      const bool he = ref->intersect(ray, r.tmax, &e), hc = bvh_intersect(bvh, &host->view, ray, r.tmax, &c);
-      const bool se = he && e.instance == sr.origin_instance[i] && e.prim == sr.origin_prim[i];
-      const bool sc = hc && c.instance == sr.origin_instance[i] && c.prim == sr.origin_prim[i];
+      compare_closest(*ref, bvh, host->view, ray, r.tmax, &surface, &e, &c);
+      const bool se = e.instance == sr.origin_instance[i] && e.prim == sr.origin_prim[i];
+      const bool sc = c.instance == sr.origin_instance[i] && c.prim == sr.origin_prim[i];
       self_embree += se;
       self_cuda += sc;
       if ((se || sc) && first_self.empty())
