@@ -57,6 +57,13 @@ HitAgreement compare_hits(const TraceRay& ray, const HitRecord& a, const HitReco
   return std::fabs(a.t - b.t) <= 1e-4f * scale ? HitAgreement::Tie : HitAgreement::Other;
 }
 
+// Counts one comparison into the t_off, ties and other counters of a result.
+void tally(HitAgreement h, uint64_t* t_off, uint64_t* ties, uint64_t* other) {
+  *t_off += h == HitAgreement::TOff;
+  *ties += h == HitAgreement::Tie;
+  *other += h == HitAgreement::Other;
+}
+
 std::string describe_hit(const HitRecord& h) {
   if (h.instance == kTraceMiss) return "miss";
   char buf[96];
@@ -148,12 +155,7 @@ ProbeResult run_trace_probe(const Scene& scene, OptixBackend& optix, const Probe
   for (size_t i = 0; i < n; ++i) {
     r.hits_optix += ho[i].instance != kTraceMiss;
     r.hits_cuda += hc[i].instance != kTraceMiss;
-    switch (compare_hits(closest[i], ho[i], hc[i])) {
-      case HitAgreement::TOff: ++r.closest_t_off; break;
-      case HitAgreement::Tie: ++r.closest_ties; break;
-      case HitAgreement::Other: ++r.closest_other; break;
-      default: break;
-    }
+    tally(compare_hits(closest[i], ho[i], hc[i]), &r.closest_t_off, &r.closest_ties, &r.closest_other);
   }
   for (size_t i = 0; i < n; ++i) {
     const bool a = (bo[i / 32] >> (i % 32)) & 1u, b = (bc[i / 32] >> (i % 32)) & 1u;
@@ -197,9 +199,7 @@ ProbeResult run_trace_probe(const Scene& scene, OptixBackend& optix, const Probe
       f.self_optix += self(ho[i], i);
       f.self_cuda += self(hc[i], i);
       const HitAgreement h = compare_hits(sr.closest[i], ho[i], hc[i]);
-      f.closest_t_off += h == HitAgreement::TOff;
-      f.closest_ties += h == HitAgreement::Tie;
-      f.closest_other += h == HitAgreement::Other;
+      tally(h, &f.closest_t_off, &f.closest_ties, &f.closest_other);
       if (h == HitAgreement::Other || self(ho[i], i) || self(hc[i], i))
         example("closest", i, describe_hit(ho[i]), describe_hit(hc[i]));
       const bool a = (bo[i / 32] >> (i % 32)) & 1u, b = (bc[i / 32] >> (i % 32)) & 1u;
