@@ -58,6 +58,8 @@ constexpr const char* kLoopNames[] = {"auto", "while", "ifif"};
 constexpr const char* kBoxNames[] = {"auto", "slab", "fma"};
 constexpr const char* kLaunchNames[] = {"2d", "1d"};
 constexpr const char* kSphereNames[] = {"custom", "builtin"};
+constexpr const char* kShadowOrderNames[] = {"auto", "direction", "queue"};  // OrderMode: Ordered is the key's own
+constexpr const char* kRayOrderNames[] = {"auto", "cells", "queue"};
 
 template <class E, E GpuTuning::*F, const char* const* kNames, size_t kCount>
 std::string parse_enum(GpuTuning& t, const std::string& text) {
@@ -76,17 +78,6 @@ json enum_value(const GpuTuning& t) {
 }
 #define PN_ENUM_KEY(E, field, names) \
   parse_enum<E, &GpuTuning::field, names, std::size(names)>, enum_value<E, &GpuTuning::field, names, std::size(names)>
-
-// OrderMode's names: Ordered's is the key's own ("direction", "cells").
-std::string order_text(OrderMode m, const char* ordered) {
-  return m == OrderMode::Auto ? "auto" : m == OrderMode::Ordered ? ordered : "queue";
-}
-bool parse_order(const std::string& text, const char* ordered, OrderMode* out) {
-  const int i = choice(text, {"auto", ordered, "queue"});
-  if (i < 0) return false;
-  *out = OrderMode(i);
-  return true;
-}
 
 const std::vector<GpuTuningKey> kKeys = {
     {"cuda_occ", "0, 10 or 12",
@@ -176,20 +167,14 @@ const std::vector<GpuTuningKey> kKeys = {
     {"shadow_order", "auto, direction or queue",
      "the wavefront's shadow rays traced in direction order: auto where the scene's rays visit at least 24 "
      "nodes (with the fused shadow stage only)",
-     [](GpuTuning& t, const std::string& s) -> std::string {
-       return parse_order(s, "direction", &t.shadow_order) ? "" : "must be auto, direction or queue";
-     },
-     [](const GpuTuning& t) { return json(order_text(t.shadow_order, "direction")); }},
+     PN_ENUM_KEY(OrderMode, shadow_order, kShadowOrderNames)},
     {"shadow_reverse", kBool,
      "ordered shadow rays traced from the light back (faster on Sponza, and biased there: DEVELOPERS.md)",
      parse_bool<&GpuTuning::shadow_reverse>, bool_value<&GpuTuning::shadow_reverse>},
     {"ray_order", "auto, cells or queue",
      "the wavefront's bounce rays traced in direction and origin cell order: auto where the scene's rays visit "
      "at least 24 nodes (the cuda trace stage only)",
-     [](GpuTuning& t, const std::string& s) -> std::string {
-       return parse_order(s, "cells", &t.ray_order) ? "" : "must be auto, cells or queue";
-     },
-     [](const GpuTuning& t) { return json(order_text(t.ray_order, "cells")); }},
+     PN_ENUM_KEY(OrderMode, ray_order, kRayOrderNames)},
     {"wavefront_fuse", kBool,
      "the cuda stage's shadow rays traced and applied by one kernel (false: two kernels, as the optix stage's)",
      parse_bool<&GpuTuning::wavefront_fuse>, bool_value<&GpuTuning::wavefront_fuse>},
