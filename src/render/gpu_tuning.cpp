@@ -53,6 +53,20 @@ json bool_value(const GpuTuning& t) {
   return t.*F;
 }
 
+// An int key in lo..hi.
+template <int GpuTuning::*F, int kLo, int kHi>
+std::string parse_int(GpuTuning& t, const std::string& text) {
+  long long v = 0;
+  if (!whole_number(text, kLo, kHi, &v))
+    return "must be a whole number in " + std::to_string(kLo) + ".." + std::to_string(kHi);
+  t.*F = int(v);
+  return "";
+}
+template <int GpuTuning::*F>
+json int_value(const GpuTuning& t) {
+  return t.*F;
+}
+
 // An enum's keys: kNames[i] names the value E(i).
 constexpr const char* kLoopNames[] = {"auto", "while", "ifif"};
 constexpr const char* kBoxNames[] = {"auto", "slab", "fma"};
@@ -132,22 +146,10 @@ const std::vector<GpuTuningKey> kKeys = {
     {"cuda_flat", kBool, "the cuda traversal's flat form where the scene is flat (false: the general form always)",
      parse_bool<&GpuTuning::cuda_flat>, bool_value<&GpuTuning::cuda_flat>},
     {"optix_maxreg", "0..255", "the OptiX module's register limit (0: OptiX's default)",
-     [](GpuTuning& t, const std::string& s) -> std::string {
-       long long v = 0;
-       if (!whole_number(s, 0, 255, &v)) return "must be a whole number in 0..255";
-       t.optix_maxreg = int(v);
-       return "";
-     },
-     [](const GpuTuning& t) { return json(t.optix_maxreg); }},
+     parse_int<&GpuTuning::optix_maxreg, 0, 255>, int_value<&GpuTuning::optix_maxreg>},
     {"optix_pixels_per_thread", "1..1024",
      "pixels a thread of the megakernel's launch (above 1: a 1D launch, each thread looping over its pixels)",
-     [](GpuTuning& t, const std::string& s) -> std::string {
-       long long v = 0;
-       if (!whole_number(s, 1, 1024, &v)) return "must be a whole number in 1..1024";
-       t.optix_pixels_per_thread = int(v);
-       return "";
-     },
-     [](const GpuTuning& t) { return json(t.optix_pixels_per_thread); }},
+     parse_int<&GpuTuning::optix_pixels_per_thread, 1, 1024>, int_value<&GpuTuning::optix_pixels_per_thread>},
     {"optix_launch", "2d or 1d", "the megakernel's launch shape: W x H, or W*H x 1",
      PN_ENUM_KEY(OptixLaunch, optix_launch, kLaunchNames)},
     {"optix_spheres", "custom or builtin",
