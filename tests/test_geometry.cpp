@@ -289,6 +289,36 @@ TEST(Geometry, ShadowRaysLeaveOutOnlyTheirEnds) {
   }
 }
 
+// The GPU's edge functions (kahan_diff_of_products; the host build computes the
+// same thing with std::fma) against the exact a * b - c * d: two float products
+// are exact in double and their difference is rounded once there, so its sign is
+// exact. Near-cancelling inputs, where the plain float expression loses most of
+// its digits, are the ones that matter for rays grazing an edge or leaving a
+// surface.
+TEST(Geometry, KahanDiffOfProductsHasTheExactSignAndTwoUlps) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> mag(-30.f, 30.f);
+  std::uniform_int_distribution<int> nudge(-8, 8);
+  int naive_far = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const float a = std::ldexp(mag(rng), nudge(rng)), b = std::ldexp(mag(rng), nudge(rng));
+    // c * d within a few units in the last place of a * b (or exactly it).
+    float c = a, d = b;
+    for (int k = nudge(rng); k != 0; k += k > 0 ? -1 : 1) c = k > 0 ? next_float_up(c) : next_float_down(c);
+    for (int k = nudge(rng); k != 0; k += k > 0 ? -1 : 1) d = k > 0 ? next_float_up(d) : next_float_down(d);
+    if (i % 2) std::swap(c, d);
+    const double exact = double(a) * double(b) - double(c) * double(d);
+    const float got = kahan_diff_of_products(a, b, c, d);
+    ASSERT_EQ(got > 0.f, exact > 0.0) << i << ": " << a << " " << b << " " << c << " " << d;
+    ASSERT_EQ(got < 0.f, exact < 0.0) << i;
+    ASSERT_LE(std::fabs(double(got) - exact), std::ldexp(std::fabs(exact), -23)) << i;
+    const float naive = a * b - c * d;
+    if (std::fabs(double(naive) - exact) > std::ldexp(std::fabs(exact), -4)) ++naive_far;
+  }
+  // The inputs do cancel: the plain float expression is off by more than 1/16 in many.
+  EXPECT_GT(naive_far, 20000);
+}
+
 TEST(Geometry, NextFloatSteps) {
   EXPECT_GT(next_float_up(0.f), 0.f);
   EXPECT_GT(next_float_up(-0.f), 0.f);
