@@ -18,6 +18,8 @@ packages=(
   libglfw3-dev           # viewer: window and OpenGL context (penumbra view)
   libgl-dev              # viewer: OpenGL headers (GL/glcorearb.h)
   libimgui-dev           # viewer: Dear ImGui, with its GLFW and OpenGL 3 backends
+  libegl-dev             # viewer: EGL headers, for --headless (libEGL.so.1 is opened at run time)
+  libegl-mesa0           # viewer: Mesa's EGL, whose surfaceless platform runs --headless without a GPU (CI)
   xvfb xauth             # viewer test: a virtual X server (xvfb-run)
   libgl1-mesa-dri        # viewer test: Mesa's software OpenGL (llvmpipe) under Xvfb
   libglx-mesa0           # viewer test: Mesa's GLX, for that OpenGL on an X server

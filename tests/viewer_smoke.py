@@ -1,11 +1,18 @@
 #!/usr/bin/env python3
-"""The viewer's window end to end (CTest: viewer_xvfb, viewer_no_display).
+"""The viewer's window end to end (CTest: viewer_xvfb, viewer_headless, viewer_no_display).
 
 --case xvfb: under `xvfb-run -a` (Mesa's software OpenGL) with the CPU backend at
 160x90: screenshots are not blank, are exactly what `penumbra render` makes for
 the same camera, strategy and spp, and change after a scripted camera move and a
 strategy switch; the split screen and equal time run; a display without
 OpenGL 3.3 fails in one line. Exits 77 (CTest SKIP_RETURN_CODE) without xvfb-run.
+
+--case headless: the same checks with `--headless` and no display server at all
+(no DISPLAY, no Xvfb: an EGL context on Mesa's surfaceless platform), plus a
+screenshot of the offscreen framebuffer with the panel drawn; `--headless`
+without an end fails in one line. Exits 77 where this machine has no EGL
+display (Debian: libegl1 and libegl-mesa0, which scripts/install-deps.sh
+installs).
 
 --case no-display: with no DISPLAY, `penumbra view` fails at once with one line
 that points to `penumbra render`.
@@ -124,21 +131,15 @@ def case_no_display(penumbra, work):
     check_one_line_error(p, ["penumbra render"], "no display")
 
 
-def case_xvfb(penumbra, work):
-    xvfb = shutil.which("xvfb-run")
-    if not xvfb:
-        print("xvfb-run not found (Debian: xvfb): skipping the viewer's window test")
-        sys.exit(SKIP)
+def fresh_work_dir(work):
     os.makedirs(work, exist_ok=True)
     os.chdir(work)
     for f in os.listdir("."):
         os.remove(f)
-    # A 24-bit screen: xvfb-run's default 8-bit one has no OpenGL visual. Mesa's
-    # software rasteriser, whatever GPU the machine has.
-    env = dict(os.environ, LIBGL_ALWAYS_SOFTWARE="1")
-    X = [xvfb, "-a", "-s", "-screen 0 1280x720x24"]
-    view = X + [penumbra, "view", "--backend", "cpu"] + SIZE
 
+
+def frames_path_and_split(view, penumbra, env, how):
+    """Checks 1-3, the same for a window and headless: `view` is the command up to the scene."""
     # 1. --frames N --screenshot: not blank, and the frame rate on stderr.
     p = run(view + ["cornell-sphere", "--frames", "6", "--screenshot", "frames.png"], env=env)
     check_not_blank("frames.png")
@@ -146,7 +147,9 @@ def case_xvfb(penumbra, work):
         fail("no frame-rate line on stderr:\n" + p.stderr)
     if "display: host upload, cpu backend" not in p.stderr:
         fail("the frame-rate line does not name the display path (host upload with the CPU backend):\n" + p.stderr)
-    print("ok: --frames/--screenshot: " + [l for l in p.stderr.splitlines() if "fps" in l][0])
+    if ("headless)" in p.stderr) != (how == "headless"):
+        fail(f"the frame-rate line should say 'headless' exactly when headless ({how}):\n" + p.stderr)
+    print(f"ok: {how}: --frames/--screenshot: " + [l for l in p.stderr.splitlines() if "fps" in l][0])
 
     # 2. A scripted camera move and strategy switch. Each screenshot must be
     # exactly `penumbra render` of the same camera (saved by the path), strategy
@@ -158,6 +161,7 @@ def case_xvfb(penumbra, work):
         {"frame": 8, "screenshot": "moved.png"},
         {"frame": 8, "strategy": "area"},
         {"frame": 12, "screenshot": "area.png"},
+        {"frame": 12, "window_screenshot": "window.png"},
         {"frame": 12, "quit": True},
     ]
     with open("path.json", "w") as f:
@@ -174,8 +178,11 @@ def case_xvfb(penumbra, work):
     same_bytes("start.png", "start_render.png", "the viewer's 4 frames of 1 spp are not `render --spp 4`")
     same_bytes("moved.png", "moved_render.png", "after the camera move the viewer does not show the saved camera")
     same_bytes("area.png", "area_render.png", "after the strategy switch the viewer does not show `--strategy area`")
-    print(f"ok: camera move (mean difference {d1:.1f}/255) and strategy switch ({d2:.1f}/255), "
-          "each identical to `penumbra render`")
+    # The window as shown: the image with the panel over it, so not the image alone.
+    check_not_blank("window.png")
+    check_differ("window.png", "area.png", "the panel is drawn over the image")
+    print(f"ok: {how}: camera move (mean difference {d1:.1f}/255) and strategy switch ({d2:.1f}/255), "
+          "each identical to `penumbra render`; the window's screenshot shows the panel")
 
     # 3. Split screen at equal spp and at equal time; EXR screenshot.
     p = run(view + ["cornell-sphere", "--split", "area,solid-angle", "--frames", "4", "--screenshot", "split.png"],
@@ -187,7 +194,21 @@ def case_xvfb(penumbra, work):
                     "--frames", "6", "--screenshot", "equal_time.exr"], env=env)
     if not os.path.getsize("equal_time.exr"):
         fail("no EXR screenshot")
-    print("ok: split screen: " + [l for l in p.stderr.splitlines() if "fps" in l][0])
+    print(f"ok: {how}: split screen: " + [l for l in p.stderr.splitlines() if "fps" in l][0])
+
+
+def case_xvfb(penumbra, work):
+    xvfb = shutil.which("xvfb-run")
+    if not xvfb:
+        print("xvfb-run not found (Debian: xvfb): skipping the viewer's window test")
+        sys.exit(SKIP)
+    fresh_work_dir(work)
+    # A 24-bit screen: xvfb-run's default 8-bit one has no OpenGL visual. Mesa's
+    # software rasteriser, whatever GPU the machine has.
+    env = dict(os.environ, LIBGL_ALWAYS_SOFTWARE="1")
+    X = [xvfb, "-a", "-s", "-screen 0 1280x720x24"]
+    view = X + [penumbra, "view", "--backend", "cpu"] + SIZE
+    frames_path_and_split(view, penumbra, env, "window")
 
     # 4. A display without OpenGL 3.3: one line, no hang.
     p = run(view + ["cornell-sphere", "--frames", "2"], env=dict(env, MESA_GL_VERSION_OVERRIDE="3.0"),
@@ -199,14 +220,34 @@ def case_xvfb(penumbra, work):
     check_one_line_error(p, ["--display interop", "penumbra render"], "--display interop without interop")
 
 
+def case_headless(penumbra, work):
+    fresh_work_dir(work)
+    # No display server of any kind; Mesa's software rasteriser even where a GPU is.
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env["LIBGL_ALWAYS_SOFTWARE"] = "1"
+    view = [penumbra, "view", "--backend", "cpu", "--headless"] + SIZE
+    p = run(view + ["cornell-sphere", "--frames", "1"], env=env, expect_ok=False, timeout=120)
+    if p.returncode != 0 and ("no display without a display server" in p.stderr or "libEGL.so.1" in p.stderr):
+        print("no EGL display here (Debian: libegl1, libegl-mesa0): skipping the headless viewer test\n" + p.stderr)
+        sys.exit(SKIP)
+    if p.returncode != 0:
+        fail(f"--headless --frames 1: exit {p.returncode}\n{p.stderr}")
+    frames_path_and_split(view, penumbra, env, "headless")
+
+    # 4. Nothing would end it: one line, at once.
+    p = run(view + ["cornell-sphere"], env=env, expect_ok=False, timeout=60)
+    check_one_line_error(p, ["--headless", "--frames"], "--headless without --frames")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--penumbra", required=True)
     ap.add_argument("--work", required=True)
-    ap.add_argument("--case", choices=["xvfb", "no-display"], required=True)
+    ap.add_argument("--case", choices=["xvfb", "headless", "no-display"], required=True)
     a = ap.parse_args()
     penumbra = os.path.abspath(a.penumbra)
-    (case_xvfb if a.case == "xvfb" else case_no_display)(penumbra, os.path.abspath(a.work))
+    cases = {"xvfb": case_xvfb, "headless": case_headless, "no-display": case_no_display}
+    cases[a.case](penumbra, os.path.abspath(a.work))
 
 
 if __name__ == "__main__":

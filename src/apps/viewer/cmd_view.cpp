@@ -88,6 +88,10 @@ Command add_view_command(CLI::App& app) {
   sub->add_flag("--hide-panel", a->o.hide_panel, "Start with the control panel hidden (Tab shows it)");
   sub->add_option("--frames", a->o.frames, "Render this many frames, print the frame rate, and exit")
       ->check(CLI::Range(1, 100000000));
+  sub->add_flag("--headless", a->o.headless,
+                "No window and no display server: the same frames drawn into an offscreen OpenGL framebuffer of an "
+                "EGL context (an NVIDIA GPU's, with interop; else Mesa's surfaceless), finished with glFinish; needs "
+                "--frames or a --camera-path that quits. Size: --width/--height, default the scene's resolution");
   sub->add_option("--screenshot", a->o.screenshot,
                   "Image (.png or .exr) written after --frames frames, or when the window is closed");
   sub->add_option("--camera-path", a->o.camera_path,

@@ -4,9 +4,7 @@
 #include <cstdio>
 #include <stdexcept>
 
-#define GLFW_INCLUDE_NONE
 #include <GL/glcorearb.h>
-#include <GLFW/glfw3.h>
 
 #if PN_VIEWER_INTEROP
 #include "apps/viewer/device_image.h"
@@ -15,9 +13,10 @@
 namespace pn::viewer {
 namespace {
 
-// Every OpenGL function the viewer calls. Loaded by name through GLFW rather
-// than linked: libGL's exports stop at OpenGL 1.x on some systems, and this
-// keeps the viewer free of a loader library.
+// Every OpenGL function the viewer calls. Loaded by name through the context's
+// own loader (GLFW's, or EGL's headless) rather than linked: libGL's exports
+// stop at OpenGL 1.x on some systems, and this keeps the viewer free of a
+// loader library.
 #define PN_GL_FUNCTIONS(X)                                        \
   X(PFNGLGETSTRINGPROC, GetString)                                \
   X(PFNGLGETINTEGERVPROC, GetIntegerv)                            \
@@ -57,7 +56,17 @@ namespace {
   X(PFNGLGENVERTEXARRAYSPROC, GenVertexArrays)                    \
   X(PFNGLBINDVERTEXARRAYPROC, BindVertexArray)                    \
   X(PFNGLDELETEVERTEXARRAYSPROC, DeleteVertexArrays)              \
-  X(PFNGLDRAWARRAYSPROC, DrawArrays)
+  X(PFNGLDRAWARRAYSPROC, DrawArrays)                              \
+  X(PFNGLFINISHPROC, Finish)                                      \
+  X(PFNGLGENFRAMEBUFFERSPROC, GenFramebuffers)                    \
+  X(PFNGLBINDFRAMEBUFFERPROC, BindFramebuffer)                    \
+  X(PFNGLDELETEFRAMEBUFFERSPROC, DeleteFramebuffers)              \
+  X(PFNGLGENRENDERBUFFERSPROC, GenRenderbuffers)                  \
+  X(PFNGLBINDRENDERBUFFERPROC, BindRenderbuffer)                  \
+  X(PFNGLDELETERENDERBUFFERSPROC, DeleteRenderbuffers)            \
+  X(PFNGLRENDERBUFFERSTORAGEPROC, RenderbufferStorage)            \
+  X(PFNGLFRAMEBUFFERRENDERBUFFERPROC, FramebufferRenderbuffer)    \
+  X(PFNGLCHECKFRAMEBUFFERSTATUSPROC, CheckFramebufferStatus)
 
 struct GlFunctions {
 #define PN_X(type, name) type name = nullptr;
@@ -102,9 +111,9 @@ unsigned compile(GLenum type, const char* source) {
 
 }  // namespace
 
-bool load_gl(std::string* missing) {
+bool load_gl(GlProcLoader get_proc, std::string* missing) {
 #define PN_X(type, name)                                                              \
-  gl.name = reinterpret_cast<type>(glfwGetProcAddress("gl" #name));                  \
+  gl.name = reinterpret_cast<type>(get_proc("gl" #name));                            \
   if (!gl.name) {                                                                     \
     *missing = "gl" #name;                                                            \
     return false;                                                                     \
@@ -271,11 +280,38 @@ void DisplayTexture::draw(int framebuffer_width, int framebuffer_height) {
   gl.UseProgram(0);
 }
 
-std::vector<unsigned char> read_framebuffer_rgb(int width, int height) {
+void finish_gl() { gl.Finish(); }
+
+OffscreenFramebuffer::OffscreenFramebuffer(int width, int height) : width_(width), height_(height) {
+  gl.GenRenderbuffers(1, &color_);
+  gl.BindRenderbuffer(GL_RENDERBUFFER, color_);
+  gl.RenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, width, height);
+  gl.BindRenderbuffer(GL_RENDERBUFFER, 0);
+  gl.GenFramebuffers(1, &framebuffer_);
+  gl.BindFramebuffer(GL_FRAMEBUFFER, framebuffer_);
+  gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color_);
+  const GLenum status = gl.CheckFramebufferStatus(GL_FRAMEBUFFER);
+  if (status != GL_FRAMEBUFFER_COMPLETE) {
+    char hex[16];
+    std::snprintf(hex, sizeof hex, "0x%04x", unsigned(status));
+    throw std::runtime_error("an offscreen framebuffer of " + std::to_string(width) + "x" + std::to_string(height) +
+                             " is incomplete (OpenGL status " + hex + ")");
+  }
+}
+
+OffscreenFramebuffer::~OffscreenFramebuffer() {
+  gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl.DeleteFramebuffers(1, &framebuffer_);
+  gl.DeleteRenderbuffers(1, &color_);
+}
+
+void OffscreenFramebuffer::bind() { gl.BindFramebuffer(GL_FRAMEBUFFER, framebuffer_); }
+
+std::vector<unsigned char> read_framebuffer_rgb(int width, int height, bool offscreen) {
   std::vector<unsigned char> px(size_t(width) * height * 3), flipped(px.size());
   gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
   gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
-  gl.ReadBuffer(GL_BACK);
+  gl.ReadBuffer(offscreen ? GL_COLOR_ATTACHMENT0 : GL_BACK);
   gl.ReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, px.data());
   const size_t row = size_t(width) * 3;
   for (int y = 0; y < height; ++y)  // OpenGL's row 0 is the bottom one

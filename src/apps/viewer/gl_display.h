@@ -1,6 +1,7 @@
 // The OpenGL side of the viewer: the few OpenGL 3.3 core functions it calls
-// (loaded through GLFW; Dear ImGui's OpenGL backend loads its own), and the
-// display texture that shows the rendered image scaled to the window.
+// (loaded through the context's loader, GLFW's or EGL's; Dear ImGui's OpenGL
+// backend loads its own), the display texture that shows the rendered image
+// scaled to the window, and the offscreen framebuffer of a headless viewer.
 #pragma once
 
 #include <memory>
@@ -11,9 +12,33 @@
 
 namespace pn::viewer {
 
+// A context's function loader: glfwGetProcAddress, eglGetProcAddress.
+using GlProcLoader = void (*(*)(const char*))();
+
 // Loads the functions below from the current context. Returns false and names
 // the first missing function in `missing` if the context lacks one.
-bool load_gl(std::string* missing);
+bool load_gl(GlProcLoader get_proc, std::string* missing);
+
+// glFinish: a headless frame is done when the GPU has drawn it.
+void finish_gl();
+
+// What a headless viewer draws into instead of a window: an RGBA8 colour
+// renderbuffer of a fixed size behind a framebuffer object. bind() makes it the
+// target of every draw and read.
+class OffscreenFramebuffer {
+ public:
+  OffscreenFramebuffer(int width, int height);  // throws (one line) if incomplete
+  ~OffscreenFramebuffer();
+  OffscreenFramebuffer(const OffscreenFramebuffer&) = delete;
+  OffscreenFramebuffer& operator=(const OffscreenFramebuffer&) = delete;
+  void bind();
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  unsigned framebuffer_ = 0, color_ = 0;
+  int width_ = 0, height_ = 0;
+};
 
 // "4.5 (Core Profile) Mesa 22.3.6" and "llvmpipe (LLVM 15.0.6, 256 bits)".
 std::string gl_version_string();
@@ -68,8 +93,9 @@ class DisplayTexture {
   unsigned char* mapped_ = nullptr;
 };
 
-// The current framebuffer (what the window shows once swapped), RGB 8-bit,
-// row 0 at the top: for documentation screenshots of the whole window.
-std::vector<unsigned char> read_framebuffer_rgb(int width, int height);
+// The current framebuffer (what the window shows once swapped, or the bound
+// offscreen one), RGB 8-bit, row 0 at the top: for screenshots of the whole
+// window.
+std::vector<unsigned char> read_framebuffer_rgb(int width, int height, bool offscreen);
 
 }  // namespace pn::viewer

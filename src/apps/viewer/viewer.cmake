@@ -85,9 +85,11 @@ if(PENUMBRA_HAVE_VIEWER)
   add_library(penumbra_viewer STATIC
     src/apps/viewer/viewer.cpp
     src/apps/viewer/gl_display.cpp
+    src/apps/viewer/headless_gl.cpp
     ${_pn_imgui_backend_sources})
   target_include_directories(penumbra_viewer PRIVATE ${IMGUI_INCLUDE_DIR} ${PENUMBRA_GL_INCLUDE_DIR} ${STB_INCLUDE_DIR})
-  # OpenGL itself is not linked: GLFW and ImGui's backend load it at run time.
+  # OpenGL itself is not linked: GLFW and ImGui's backend load it at run time,
+  # and --headless opens libEGL.so.1 (headless_gl.cpp; its headers: libegl-dev).
   target_link_libraries(penumbra_viewer
     PUBLIC penumbra_viewer_core
     PRIVATE penumbra_warnings ${IMGUI_LIBRARY} glfw ${STB_LIBRARY} ${CMAKE_DL_LIBS})

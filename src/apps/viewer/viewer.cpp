@@ -1,5 +1,8 @@
 // The interactive viewer: a GLFW window with an OpenGL 3.3 core context, Dear
 // ImGui controls, and one or two ProgressiveImages (progressive.h) on screen.
+// Headless (--headless), the same loop draws into an offscreen framebuffer of
+// an EGL context (headless_gl.h) and finishes each frame with glFinish; there
+// is no input then but the camera path's actions.
 //
 // One frame = poll input, apply scripted actions, build the panel, restart the
 // accumulation if anything that changes the image changed, add samples, tone-map
@@ -30,6 +33,7 @@
 #include "apps/viewer/camera_control.h"
 #include "apps/viewer/camera_path.h"
 #include "apps/viewer/gl_display.h"
+#include "apps/viewer/headless_gl.h"
 #include "apps/viewer/progressive.h"
 #include "io/image.h"
 #include "io/output.h"
@@ -155,6 +159,10 @@ class Viewer {
   // Setup.
   void load(const std::vector<std::string>& extra_overrides);
   void open_window();
+  void open_glfw_window();
+  void open_headless();
+  void init_gl_and_panel(GlProcLoader loader);
+  void framebuffer_size(int* width, int* height) const;
   void choose_display();
   std::unique_ptr<ProgressiveImage> make_image();
   // Per frame.
@@ -189,8 +197,10 @@ class Viewer {
   std::unique_ptr<Backend> backend_;  // refers to *scene_: destroyed first
   std::vector<Side> sides_;
 
-  // Window and GL.
+  // Window and GL (headless: the EGL context and its framebuffer instead of the window).
   GLFWwindow* window_ = nullptr;
+  std::unique_ptr<HeadlessGl> headless_;
+  std::unique_ptr<OffscreenFramebuffer> offscreen_;
   bool glfw_ = false, imgui_ = false, imgui_glfw_ = false, imgui_gl3_ = false;  // what to shut down
   std::unique_ptr<DisplayTexture> display_;
   std::string gl_info_;
@@ -241,7 +251,7 @@ class Viewer {
   Clock::time_point restart_time_;
   std::vector<float> recent_ms_;  // the last frames' times, oldest first, for the graph
   double last_frame_ms_ = 0, last_render_ms_ = 0;
-  std::vector<double> frame_ms_, render_ms_, display_ms_;  // every frame, for --frames
+  std::vector<double> frame_ms_, render_ms_, display_ms_, present_ms_;  // every frame, for --frames
   std::vector<PathAction> path_;
   size_t next_action_ = 0;
   bool quit_ = false;
@@ -256,6 +266,10 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
     check_output_file(opt_.screenshot, "--screenshot");
   }
   if (!opt_.camera_path.empty()) path_ = load_camera_path(opt_.camera_path);
+  if (opt_.headless && opt_.frames == 0 &&
+      std::none_of(path_.begin(), path_.end(), [](const PathAction& a) { return a.key == "quit"; }))
+    throw std::runtime_error("--headless needs --frames N or a --camera-path with a \"quit\" action: nothing else "
+                             "ends a viewer without a window");
   scene_name_ = find_builtin(opt_.scene) ? opt_.scene : std::filesystem::path(opt_.scene).stem().string();
   load({});
   // --display interop that cannot be (the CPU backend, a build without CUDA): one line, before any window.
@@ -310,10 +324,28 @@ void Viewer::load(const std::vector<std::string>& extra) {
 }
 
 void Viewer::open_window() {
+  if (opt_.headless) open_headless();
+  else open_glfw_window();
+  int fw, fh;
+  framebuffer_size(&fw, &fh);
+  if (opt_.scale > 0.f) {
+    scale_ = opt_.scale;
+  } else if (backend_->name() == "cpu") {
+    // On the CPU a frame of a 1280x720 image takes seconds: start at about
+    // 640x360 image pixels, so that navigation stays interactive.
+    scale_ = float(std::min(1.0, std::sqrt(640.0 * 360.0 / (double(std::max(fw, 1)) * std::max(fh, 1)))));
+  }
+  std::fprintf(stderr, "%s\n", backend_note_.c_str());
+  std::fprintf(stderr, "view: %s, %s %dx%d, %s\n", scene_->source.c_str(), offscreen_ ? "offscreen" : "window", fw, fh,
+               gl_info_.c_str());
+  choose_display();
+}
+
+void Viewer::open_glfw_window() {
   glfwSetErrorCallback(on_glfw_error);
   if (!glfwInit())
     throw std::runtime_error("cannot open a window (" + g_glfw_error + "): the viewer needs a display with OpenGL 3.3; " +
-                             kRenderHint);
+                             "`penumbra view --headless` needs none; " + kRenderHint);
   glfw_ = true;
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
@@ -336,39 +368,60 @@ void Viewer::open_window() {
     throw std::runtime_error("the display offers no OpenGL 3.3 core context (" + g_glfw_error + "); " + kRenderHint);
   glfwMakeContextCurrent(window_);
   glfwSwapInterval(0);  // no vsync: a progressive renderer converges as fast as it can, and fps is measured honestly
+  // Our callbacks first: ImGui's GLFW backend chains to them.
+  glfwSetWindowUserPointer(window_, this);
+  glfwSetKeyCallback(window_, on_key);
+  glfwSetScrollCallback(window_, on_scroll);
+  init_gl_and_panel(glfwGetProcAddress);
+}
+
+// No window: an EGL context made current without a surface, and a framebuffer
+// object of the window's size to draw into. The size is the scene's unless
+// given (there is no screen to fit).
+void Viewer::open_headless() {
+  try {
+    headless_ = std::make_unique<HeadlessGl>();
+  } catch (const std::exception& e) {
+    throw std::runtime_error(e.what() + std::string("; ") + kRenderHint);
+  }
+  init_gl_and_panel(HeadlessGl::loader());
+  const double aspect = double(scene_->render.width) / scene_->render.height;
+  int w = opt_.width, h = opt_.height;
+  if (!w && !h) w = scene_->render.width, h = scene_->render.height;
+  else if (!h) h = std::max(16, int(std::lround(w / aspect)));
+  else if (!w) w = std::max(16, int(std::lround(h * aspect)));
+  offscreen_ = std::make_unique<OffscreenFramebuffer>(w, h);
+  offscreen_->bind();
+  gl_info_ += " (headless: " + headless_->description() + ")";
+}
+
+// The OpenGL functions, the display texture and Dear ImGui, in the current context.
+void Viewer::init_gl_and_panel(GlProcLoader loader) {
   std::string missing;
-  if (!load_gl(&missing)) throw std::runtime_error("the OpenGL context lacks " + missing + "; " + kRenderHint);
+  if (!load_gl(loader, &missing)) throw std::runtime_error("the OpenGL context lacks " + missing + "; " + kRenderHint);
   if (gl_version_number() < 33)
     throw std::runtime_error("OpenGL 3.3 is needed, the display offers " + gl_version_string() + "; " + kRenderHint);
   gl_info_ = "OpenGL " + gl_version_string() + " on " + gl_renderer_string();
   display_ = std::make_unique<DisplayTexture>();
 
-  // Our callbacks first: ImGui's GLFW backend chains to them.
-  glfwSetWindowUserPointer(window_, this);
-  glfwSetKeyCallback(window_, on_key);
-  glfwSetScrollCallback(window_, on_scroll);
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
   imgui_ = true;
   ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini left in the working directory
   ImGui::StyleColorsDark();
   ImGui::GetStyle().Alpha = 0.92f;
-  imgui_glfw_ = ImGui_ImplGlfw_InitForOpenGL(window_, true);
-  imgui_gl3_ = imgui_glfw_ && ImGui_ImplOpenGL3_Init("#version 330 core");
+  if (window_) imgui_glfw_ = ImGui_ImplGlfw_InitForOpenGL(window_, true);
+  imgui_gl3_ = (imgui_glfw_ || !window_) && ImGui_ImplOpenGL3_Init("#version 330 core");
   if (!imgui_gl3_) throw std::runtime_error("cannot initialise Dear ImGui's OpenGL 3 backend; " + std::string(kRenderHint));
+}
 
-  int fw, fh;
-  glfwGetFramebufferSize(window_, &fw, &fh);
-  if (opt_.scale > 0.f) {
-    scale_ = opt_.scale;
-  } else if (backend_->name() == "cpu") {
-    // On the CPU a frame of a 1280x720 image takes seconds: start at about
-    // 640x360 image pixels, so that navigation stays interactive.
-    scale_ = float(std::min(1.0, std::sqrt(640.0 * 360.0 / (double(std::max(fw, 1)) * std::max(fh, 1)))));
+void Viewer::framebuffer_size(int* width, int* height) const {
+  if (offscreen_) {
+    *width = offscreen_->width();
+    *height = offscreen_->height();
+  } else {
+    glfwGetFramebufferSize(window_, width, height);
   }
-  std::fprintf(stderr, "%s\n", backend_note_.c_str());
-  std::fprintf(stderr, "view: %s, window %dx%d, %s\n", scene_->source.c_str(), fw, fh, gl_info_.c_str());
-  choose_display();
 }
 
 // Interop where it works (the OptiX backend, its GL context on the NVIDIA GPU);
@@ -397,6 +450,8 @@ Viewer::~Viewer() {
   if (imgui_glfw_) ImGui_ImplGlfw_Shutdown();
   if (imgui_) ImGui::DestroyContext();
   display_.reset();  // needs the context
+  offscreen_.reset();
+  headless_.reset();
   if (window_) glfwDestroyWindow(window_);
   if (glfw_) glfwTerminate();
   backend_.reset();
@@ -425,7 +480,7 @@ ImageSettings Viewer::wanted() const {
   if (selection_ == LightSelection::Restir) s.restir = panel_restir();
   s.max_depth = max_depth_;
   int fw = 0, fh = 0;
-  glfwGetFramebufferSize(window_, &fw, &fh);
+  framebuffer_size(&fw, &fh);
   s.width = std::max(1, int(std::lround(fw * scale_)));
   s.height = std::max(1, int(std::lround(fh * scale_)));
   s.split = split_ && s.width >= 2;
@@ -623,11 +678,12 @@ void Viewer::screenshot_button() {
 
 void Viewer::window_screenshot(const std::string& path) {
   int fw, fh;
-  glfwGetFramebufferSize(window_, &fw, &fh);
-  std::vector<unsigned char> px = read_framebuffer_rgb(fw, fh);
+  framebuffer_size(&fw, &fh);
+  std::vector<unsigned char> px = read_framebuffer_rgb(fw, fh, offscreen_ != nullptr);
   const std::vector<uint8_t> png = encode_png(path, fw, fh, 3, px.data());
   write_file_atomic(path, png.data(), png.size());
-  std::fprintf(stderr, "wrote %s (the window, %dx%d)\n", path.c_str(), fw, fh);
+  std::fprintf(stderr, "wrote %s (the %s, %dx%d)\n", path.c_str(), offscreen_ ? "offscreen framebuffer" : "window", fw,
+               fh);
 }
 
 void Viewer::save_camera_file(const std::string& path) {
@@ -982,10 +1038,12 @@ int Viewer::run() {
     const auto t0 = Clock::now();
     const double dt = std::chrono::duration<double>(t0 - previous_start).count();  // for fly speed
     previous_start = t0;
-    glfwPollEvents();
-    if (glfwWindowShouldClose(window_)) break;
+    if (window_) {
+      glfwPollEvents();
+      if (glfwWindowShouldClose(window_)) break;
+    }
     int fw, fh;
-    glfwGetFramebufferSize(window_, &fw, &fh);
+    framebuffer_size(&fw, &fh);
     if (fw == 0 || fh == 0) {  // minimised: nothing to show, nothing to restart; sleep until restored
       glfwWaitEventsTimeout(0.1);
       continue;
@@ -1001,9 +1059,15 @@ int Viewer::run() {
     if (last && (pending_window_shots_.empty() || !started_)) break;
 
     ImGui_ImplOpenGL3_NewFrame();
-    ImGui_ImplGlfw_NewFrame();
+    if (window_) {
+      ImGui_ImplGlfw_NewFrame();
+    } else {  // what GLFW's backend would set; no input
+      ImGuiIO& io = ImGui::GetIO();
+      io.DisplaySize = ImVec2(float(fw), float(fh));
+      io.DeltaTime = float(std::max(dt, 1e-6));
+    }
     ImGui::NewFrame();
-    if (!last) handle_input(dt);
+    if (!last && window_) handle_input(dt);
     if (panel_) draw_panel();
     if (!last) sync();
     if (screenshot_requested_) {  // before this frame's samples: what is on screen now
@@ -1030,7 +1094,10 @@ int Viewer::run() {
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
     for (const std::string& p : pending_window_shots_) window_screenshot(p);
     pending_window_shots_.clear();
-    glfwSwapBuffers(window_);
+    const auto tp = Clock::now();
+    if (window_) glfwSwapBuffers(window_);
+    else finish_gl();  // headless: the frame is displayed when the GPU has drawn it
+    const double present_ms = ms_since(tp);
     if (last) break;
 
     last_frame_ms_ = ms_since(t0);
@@ -1038,6 +1105,7 @@ int Viewer::run() {
     frame_ms_.push_back(last_frame_ms_);
     render_ms_.push_back(render_ms);
     display_ms_.push_back(display_ms);
+    present_ms_.push_back(present_ms);
     recent_ms_.push_back(float(last_frame_ms_));
     if (recent_ms_.size() > 120) recent_ms_.erase(recent_ms_.begin());
     if (ms_since(last_title) > 500.0) {
@@ -1045,7 +1113,7 @@ int Viewer::run() {
       char title[256];
       std::snprintf(title, sizeof title, "penumbra view: %s  %llu spp  %.1f ms/frame", scene_label().c_str(),
                     (unsigned long long)sides_[0].image->samples(), last_frame_ms_);
-      glfwSetWindowTitle(window_, title);
+      if (window_) glfwSetWindowTitle(window_, title);
     }
     ++frame_;
   }
@@ -1056,6 +1124,7 @@ int Viewer::run() {
     const double total = std::accumulate(frame_ms_.begin(), frame_ms_.end(), 0.0);
     const double render = std::accumulate(render_ms_.begin(), render_ms_.end(), 0.0) / n;
     const double display = std::accumulate(display_ms_.begin(), display_ms_.end(), 0.0) / n;
+    const double present = std::accumulate(present_ms_.begin(), present_ms_.end(), 0.0) / n;
     std::vector<double> sorted = frame_ms_;
     std::sort(sorted.begin(), sorted.end());
     std::string spp;
@@ -1063,10 +1132,11 @@ int Viewer::run() {
       spp += (spp.empty() ? "" : " | ") + std::string(strategy_name(s.strategy)) + " " + std::to_string(s.image->samples()) + " spp";
     std::fprintf(stderr,
                  "view: %zu frames of %dx%d (%s): %.2f ms/frame, %.1f fps as displayed (median %.2f ms; per frame: "
-                 "render %.2f ms, tone-map + upload %.2f ms, UI + present %.2f ms; display: %s, %s backend)\n",
+                 "render %.2f ms, tone-map + upload %.2f ms, UI %.2f ms, present %.2f ms; display: %s, %s backend%s)\n",
                  n, applied_.width, applied_.height, spp.c_str(), total / n, 1000.0 * n / total, sorted[n / 2],
-                 render, display, total / n - render - display, display_path_name(display_path_.path),
-                 backend_->name().c_str());
+                 render, display, total / n - render - display - present, present,
+                 display_path_name(display_path_.path), backend_->name().c_str(),
+                 offscreen_ ? ", headless" : "");
   }
   if (nonfinite_ > 0) {
     std::fprintf(stderr,

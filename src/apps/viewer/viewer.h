@@ -15,6 +15,7 @@ struct ViewerOptions {
   int width = 0, height = 0;        // window size; 0 = from the scene's resolution
   float scale = 0.f;                // resolution scale; 0 = automatic
   int frames = 0;                   // > 0: render this many frames, then exit
+  bool headless = false;            // an EGL context's offscreen framebuffer instead of a window (headless_gl.h)
   std::string screenshot;           // written after --frames frames (or on exit)
   std::string camera_path;          // scripted actions (camera_path.h)
   int spp_per_frame = 1;
@@ -29,7 +30,8 @@ struct ViewerOptions {
   std::string display = "auto";     // auto, interop, host: how the image reaches the screen (progressive.h)
 };
 
-// Opens the window and runs until it is closed or the automation ends.
+// Opens the window (or, headless, an offscreen framebuffer) and runs until it
+// is closed or the automation ends.
 // Returns the exit status; throws std::runtime_error (one line) on failure,
 // including "no display" and "no OpenGL 3.3", which point to `penumbra render`.
 int run_viewer(const ViewerOptions& options);
