@@ -26,6 +26,7 @@
 #include <nanobind/stl/pair.h>
 
 #include "apps/environment.h"
+#include "apps/progress.h"
 #include "io/image.h"
 #include "render/compare.h"
 #include "render/converge.h"
@@ -522,6 +523,7 @@ them without a copy to the host.)")
       "converge",
       [](ConvergeOptions o, nb::object progress) {
         o.progress = python_progress(std::move(progress));
+        o.bars = stderr_progress_bars();  // drawn where stderr is a terminal, as the command line does
         ConvergeResult r = backend_call([&] { return run_converge(o); });
         nb::list rows;
         for (const ConvergeMeasurement& x : r.measurements) {

@@ -27,6 +27,7 @@
 #include "apps/options.h"
 #include "io/output.h"
 #include "render/backend.h"
+#include "io/host_memory.h"
 #include "render/resources.h"
 #include "render/technique.h"
 #include "scene/scene.h"

@@ -91,6 +91,7 @@ Command add_converge_command(CLI::App& app) {
     ConvergeOptions o = *a;
     if (o.out.empty()) o.out = "converge-" + std::filesystem::path(o.scene).stem().string();
     if (o.cache.empty()) o.cache = cache_dir_from_environment();
+    o.bars = stderr_progress_bars();
     ConvergeResult r;
     try {
       r = run_converge(o);

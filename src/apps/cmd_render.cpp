@@ -15,6 +15,7 @@
 #include "io/output.h"
 #include "render/backend.h"
 #include "render/denoise.h"
+#include "io/host_memory.h"
 #include "render/resources.h"
 #include "scene/scene.h"
 

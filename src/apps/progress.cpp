@@ -6,14 +6,6 @@
 
 namespace pn {
 
-std::string format_duration(double s) {
-  char buf[64];
-  if (s < 60) std::snprintf(buf, sizeof buf, "%.1fs", s);
-  else if (s < 3600) std::snprintf(buf, sizeof buf, "%dm%02ds", int(s) / 60, int(s) % 60);
-  else std::snprintf(buf, sizeof buf, "%dh%02dm", int(s) / 3600, (int(s) % 3600) / 60);
-  return buf;
-}
-
 ProgressBar::ProgressBar(std::string label) : label_(std::move(label)) {
   tty_ = isatty(STDERR_FILENO) == 1;
   start_ = last_draw_ = std::chrono::steady_clock::now();
@@ -40,6 +32,24 @@ void ProgressBar::update(uint64_t done, uint64_t total) {
                format_duration(eta).c_str());
   std::fflush(stderr);
   drawn_ = true;
+}
+
+namespace {
+
+class BarReport : public ProgressReport {
+ public:
+  explicit BarReport(const std::string& label) : bar_(label) {}
+  void update(uint64_t done, uint64_t total) override { bar_.update(done, total); }
+  void finish() override { bar_.finish(); }
+
+ private:
+  ProgressBar bar_;
+};
+
+}  // namespace
+
+ProgressReporter stderr_progress_bars() {
+  return [](const std::string& label) -> std::unique_ptr<ProgressReport> { return std::make_unique<BarReport>(label); };
 }
 
 double ProgressBar::finish() {

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <string>
 
+#include "render/progress.h"
+
 namespace pn {
 
 class ProgressBar {
@@ -25,6 +27,7 @@ class ProgressBar {
   bool drawn_ = false;
 };
 
-std::string format_duration(double seconds);
+// A ProgressReporter (render/progress.h) that draws a ProgressBar per part.
+ProgressReporter stderr_progress_bars();
 
 }  // namespace pn

@@ -15,7 +15,7 @@
 #include <tinyexr.h>
 
 #include "core/texture.h"
-#include "render/resources.h"
+#include "io/host_memory.h"
 
 namespace pn {
 

@@ -15,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "apps/progress.h"
 #include "io/image.h"
 #include "io/npy.h"
 #include "io/output.h"
+#include "io/host_memory.h"
 #include "render/resources.h"
 #include "render/metrics.h"
 #include "render/technique.h"
@@ -28,6 +28,25 @@
 
 namespace pn {
 namespace {
+
+// A timed part of the work, shown through the options' reporter while verbose.
+class Part {
+ public:
+  Part(const ConvergeOptions& o, const std::string& label)
+      : report_(o.verbose && o.bars ? o.bars(label) : nullptr), start_(std::chrono::steady_clock::now()) {}
+  void update(uint64_t done, uint64_t total) {
+    if (report_) report_->update(done, total);
+  }
+  // Ends what is shown; returns the seconds since the part began.
+  double finish() {
+    if (report_) report_->finish();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  std::unique_ptr<ProgressReport> report_;
+  std::chrono::steady_clock::time_point start_;
+};
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
@@ -320,10 +339,10 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     if (a.verbose) std::fprintf(stderr, fmt, args...);
   };
   log("%s\n", note.c_str());
-  // Progress of one render to a bar (when verbose) and to the caller's hook.
-  auto progress_to = [&](ProgressBar& bar, uint64_t base, uint64_t total) -> ProgressFn {
-    return [&bar, &a, base, total](uint64_t done, uint64_t) {
-      if (a.verbose) bar.update(base + done, total);
+  // Progress of one render to the part's report (when verbose) and to the caller's hook.
+  auto progress_to = [&](Part& part, uint64_t base, uint64_t total) -> ProgressFn {
+    return [&part, &a, base, total](uint64_t done, uint64_t) {
+      part.update(base + done, total);
       if (a.progress) a.progress(base + done, total);
     };
   };
@@ -402,7 +421,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     // In chunks of plan.chunk_spp samples, each rendered from zero and added in
     // chunk order: the sums render_reference_chunk() and store_reference() give.
     Film film(W, H), chunk;
-    ProgressBar bar("reference " + std::to_string(a.reference_spp) + " spp");
+    Part bar(a, "reference " + std::to_string(a.reference_spp) + " spp");
     const uint64_t total = uint64_t(W) * H * a.reference_spp;
     for (int k = 0; k < plan.chunks; ++k) {
       render_chunk(*backend, setup, k, chunk, progress_to(bar, uint64_t(W) * H * k * plan.chunk_spp, total));
@@ -493,7 +512,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   uint64_t per_strategy = 0;
   for (int s : spps) per_strategy += uint64_t(s) * a.seeds;
   if (a.frame_spp) per_strategy += uint64_t(a.frame_spp - 1) * a.seeds;
-  ProgressBar bar("converging");
+  Part bar(a, "converging");
   uint64_t done_spp = 0, total_spp = per_strategy * techniques.size();
   for (const Technique& tq : techniques) {
     const std::string name = technique_name(tq);
@@ -525,7 +544,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         reln += nolight.relmse / a.seeds;
         ms += t / a.seeds;
         done_spp += spp;
-        if (a.verbose) bar.update(done_spp, total_spp);
+        bar.update(done_spp, total_spp);
         if (spp == a.frame_spp) {  // sample N alone: the N-spp render's sums less the (N - 1)-spp render's
           Film before(W, H);
           timed_render(*backend, f, before, 0, uint32_t(spp - 1), a.progress);

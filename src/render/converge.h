@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/backend.h"
+#include "render/progress.h"
 
 namespace pn {
 
@@ -58,6 +59,9 @@ struct ConvergeOptions {
   // Called during every render (see Backend::render); may throw to stop the
   // experiment (the Python module's Ctrl-C).
   ProgressFn progress;
+  // Shows the ground truth's and the runs' progress while verbose (the apps:
+  // bars on stderr); none: nothing shown.
+  ProgressReporter bars;
 };
 
 // One render of the experiment: a row of measurements.csv.

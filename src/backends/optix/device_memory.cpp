@@ -7,7 +7,7 @@
 
 #include "core/restir.h"
 #include "core/texture.h"
-#include "render/resources.h"
+#include "io/host_memory.h"
 
 namespace pn {
 namespace optix {

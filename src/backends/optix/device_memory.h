@@ -14,7 +14,7 @@
 #include <cuda_runtime.h>
 
 #include "backends/optix/context.h"
-#include "render/resources.h"
+#include "io/host_memory.h"
 #include "scene/scene.h"
 
 namespace pn {

@@ -29,7 +29,7 @@
 #include "core/geometry.h"
 #include "core/restir.h"
 #include "core/scene_view.h"
-#include "render/resources.h"
+#include "io/host_memory.h"
 
 namespace pn {
 namespace {
