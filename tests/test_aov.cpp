@@ -7,7 +7,8 @@
 
 #include "core/aov.h"
 #include "render/backend.h"
-#include "render/denoise.h"
+#include "backends/denoise.h"
+#include "backends/make_backend.h"
 #include "render/film.h"
 #include "scene/scene.h"
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <tuple>
 
+#include "backends/make_backend.h"
 #include "core/texture.h"
 #include "render/backend.h"
 #include "scene/scene.h"

@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "backends/make_backend.h"
 #include "double_vec.h"
 #include "render/backend.h"
 #include "scene/scene.h"

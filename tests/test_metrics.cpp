@@ -13,7 +13,8 @@
 
 #include "io/image.h"
 #include "render/backend.h"
-#include "render/converge.h"
+#include "apps/converge.h"
+#include "backends/make_backend.h"
 #include "render/metrics.h"
 #include "scene/scene.h"
 

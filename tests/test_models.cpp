@@ -13,7 +13,8 @@
 
 #include "apps/environment.h"
 #include "render/backend.h"
-#include "render/converge.h"
+#include "apps/converge.h"
+#include "backends/make_backend.h"
 #include "scene/scene.h"
 
 namespace pn {

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 
+#include "backends/make_backend.h"
 #include "io/image.h"
 #include "render/backend.h"
 #include "render/compare.h"

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <random>
 
+#include "backends/make_backend.h"
 #include "render/backend.h"
 #include "scene/scene.h"
 

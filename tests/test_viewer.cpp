@@ -20,6 +20,7 @@
 #include "apps/viewer/device_image.h"
 #include "backends/optix/optix_backend.h"
 #endif
+#include "backends/make_backend.h"
 #include "io/image.h"
 #include "render/backend.h"
 #include "scene/scene.h"

@@ -29,7 +29,7 @@
 #include "apps/progress.h"
 #include "io/image.h"
 #include "render/compare.h"
-#include "render/converge.h"
+#include "apps/converge.h"
 #include "objects.h"
 #if PN_HAVE_OPTIX
 #include "backends/optix/optix_backend.h"

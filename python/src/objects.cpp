@@ -4,7 +4,8 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include "render/denoise.h"
+#include "backends/denoise.h"
+#include "backends/make_backend.h"
 
 #if PN_HAVE_OPTIX
 #include "backends/optix/optix_backend.h"

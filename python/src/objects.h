@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/backend.h"
-#include "render/denoise.h"
+#include "backends/denoise.h"
 #include "render/film.h"
 #include "scene/scene.h"
 

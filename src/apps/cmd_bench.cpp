@@ -26,6 +26,7 @@
 #include "apps/exit_status.h"
 #include "apps/options.h"
 #include "io/output.h"
+#include "backends/make_backend.h"
 #include "render/backend.h"
 #include "io/host_memory.h"
 #include "render/resources.h"

@@ -13,7 +13,7 @@
 #include "apps/options.h"
 #include "apps/progress.h"
 #include "io/output.h"
-#include "render/converge.h"
+#include "apps/converge.h"
 
 namespace pn {
 

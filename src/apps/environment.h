@@ -16,7 +16,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "render/converge.h"
+#include "apps/converge.h"
 #include "scene/scene.h"
 
 namespace pn {

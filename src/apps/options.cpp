@@ -11,7 +11,7 @@
 #include "core/integrator.h"
 #include "io/image.h"
 #include "render/backend.h"
-#include "render/denoise.h"
+#include "backends/denoise.h"
 #include "render/gpu_tuning.h"
 #include "scene/scene.h"
 

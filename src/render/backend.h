@@ -155,11 +155,4 @@ void check_gpus(const std::string& spec);
 // GPUs than there are or for an index that does not exist.
 std::vector<int> select_gpus(const std::string& spec, int available);
 
-// Returns "cpu", "optix" or "auto"'s choice. Throws std::runtime_error with one
-// line when the requested backend cannot run here. `note` receives a line that
-// says which backend was chosen and why. With options.gpus selecting several
-// GPUs, the GPU backend is a MultiBackend over one OptiX backend per GPU.
-std::unique_ptr<Backend> make_backend(const std::string& which, const Scene& scene,
-                                      const BackendOptions& options, std::string* note);
-
 }  // namespace pn

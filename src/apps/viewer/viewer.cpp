@@ -37,9 +37,10 @@
 #include "apps/viewer/progressive.h"
 #include "io/image.h"
 #include "io/output.h"
+#include "backends/make_backend.h"
 #include "render/backend.h"
 #include "apps/options.h"
-#include "render/denoise.h"
+#include "backends/denoise.h"
 #include "scene/scene.h"
 
 #if PN_VIEWER_INTEROP

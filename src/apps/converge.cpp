@@ -1,6 +1,7 @@
 // One convergence experiment: see converge.h. Moved from `penumbra converge`
 // (apps/cmd_converge.cpp), which now parses its options and calls run_converge().
-#include "render/converge.h"
+#include "apps/converge.h"
+#include "backends/make_backend.h"
 
 #include <algorithm>
 #include <chrono>

@@ -1,4 +1,4 @@
-#include "render/denoise.h"
+#include "backends/denoise.h"
 
 #include <chrono>
 #include <map>
