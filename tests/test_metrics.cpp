@@ -1,4 +1,4 @@
-// The arithmetic of the convergence experiment (render/metrics.h, render/converge.cpp): RMSE and relMSE over all
+// The arithmetic of the convergence experiment (render/metrics.h, apps/converge.cpp): RMSE and relMSE over all
 // pixels and over those that see no light, the reference's noise floor, efficiency 1 / (MSE x time), the log-log
 // fit and the spp to reach a threshold, each on images whose answer is written here by hand; then a small
 // `converge` run whose summary is recomputed here from its own renders and ground truth.

@@ -482,7 +482,7 @@ them without a copy to the host.)")
       "a"_a, "a_var"_a, "b"_a, "b_var"_a, "max_mean_rel_diff"_a, "max_image_z"_a, "outlier_z"_a,
       "max_outlier_fraction"_a);
 
-  // Convergence experiments: the options (render/converge.h) as an object that
+  // Convergence experiments: the options (apps/converge.h) as an object that
   // penumbra.converge() and the reference functions fill in.
   nb::class_<ConvergeOptions>(m, "ConvergeOptions")
       .def(nb::init<>())

@@ -1,5 +1,5 @@
 // `penumbra converge`: one convergence experiment (the thesis's chapter 4): the
-// options of render/converge.h, whose run_converge() does the work (and also
+// options of apps/converge.h, whose run_converge() does the work (and also
 // serves the Python module's penumbra.converge()). scripts/study.py drives it
 // over scenes and sweeps and draws the report.
 #include <cstdio>

@@ -46,7 +46,7 @@ struct GpuTuning;
 void add_tune_option(CLI::App* sub, GpuTuning* tuning);
 
 // --denoiser, --denoise-quality, --denoise-clean-aux and --oidn-library (render, view): which denoiser
-// --denoise uses and how (render/denoise.h). The choices as the command line gave them; denoise_options()
+// --denoise uses and how (backends/denoise.h). The choices as the command line gave them; denoise_options()
 // turns them into DenoiseOptions, finding Intel Open Image Denoise's library.
 struct DenoiseArgs {
   std::string denoiser = "oidn", quality = "high", oidn_library;
@@ -59,7 +59,7 @@ void add_denoise_options(CLI::App* sub, DenoiseArgs* a);
 std::string find_oidn_library(const std::string& explicit_path, std::string* how = nullptr);
 
 struct DenoiseOptions;
-// The options for render/denoise.h; *how: where OIDN's library was found (find_oidn_library).
+// The options for backends/denoise.h; *how: where OIDN's library was found (find_oidn_library).
 DenoiseOptions denoise_options(const DenoiseArgs& a, std::string* how = nullptr);
 
 // "none, balance, power: what each does" lines for --help.

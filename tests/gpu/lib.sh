@@ -33,7 +33,7 @@ height=72
 export PENUMBRA_DATA=${PENUMBRA_DATA:-$gpu_tests_root/data}
 
 # The GPU backend, or exit 77 (skipped) where there is none: a build without OptiX, or a machine without an NVIDIA
-# GPU or driver. The executable says which in one line (render/backend.cpp, backends/optix/context.cpp). Any other
+# GPU or driver. The executable says which in one line (backends/make_backend.cpp, backends/optix/context.cpp). Any other
 # failure (a GPU and driver are there, the backend is built, and it does not work: an OptiX ABI the driver lacks, a
 # driver older than the CUDA runtime, a crash) fails the test: that is what these tests are for.
 gpu_probe() {

@@ -956,7 +956,7 @@ void Viewer::draw_overlay() {
 // run (Intel Open Image Denoise not installed: one line saying how to get it).
 bool Viewer::show_denoised() {
   try {
-    // Intel Open Image Denoise (render/denoise.h), its library found once (apps/options.h).
+    // Intel Open Image Denoise (backends/denoise.h), its library found once (apps/options.h).
     static const DenoiseOptions options = denoise_options(DenoiseArgs{});
     check_denoise_backend("denoise", *backend_, options);
     if (guides_.width != applied_.width || guides_.height != applied_.height)
