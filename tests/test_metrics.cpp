@@ -201,7 +201,7 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
   ConvergeOptions o;
   o.scene = scene_name;
   o.backend = "cpu";
-  o.threads = 2;
+  o.backend_options.threads = 2;
   o.width = W;
   o.height = H;
   o.max_spp = max_spp;

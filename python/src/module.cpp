@@ -491,7 +491,9 @@ them without a copy to the host.)")
       .def_rw("out", &ConvergeOptions::out)
       .def_rw("cache", &ConvergeOptions::cache)
       .def_rw("backend", &ConvergeOptions::backend)
-      .def_rw("gpus", &ConvergeOptions::gpus)
+      .def_prop_rw(
+          "gpus", [](const ConvergeOptions& o) { return o.backend_options.gpus; },
+          [](ConvergeOptions& o, const std::string& v) { o.backend_options.gpus = v; })
       .def_rw("strategies", &ConvergeOptions::strategies)
       .def_rw("mis", &ConvergeOptions::mis)
       .def_rw("reference_strategy", &ConvergeOptions::reference_strategy)
@@ -506,7 +508,9 @@ them without a copy to the host.)")
       .def_rw("crop_spp", &ConvergeOptions::crop_spp)
       .def_rw("frame_spp", &ConvergeOptions::frame_spp)
       .def_rw("fit_min_spp", &ConvergeOptions::fit_min_spp)
-      .def_rw("threads", &ConvergeOptions::threads)
+      .def_prop_rw(
+          "threads", [](const ConvergeOptions& o) { return o.backend_options.threads; },
+          [](ConvergeOptions& o, int v) { o.backend_options.threads = v; })
       .def_rw("threshold", &ConvergeOptions::threshold)
       .def_rw("crop", &ConvergeOptions::crop)
       .def_rw("verbose", &ConvergeOptions::verbose)
@@ -515,7 +519,7 @@ them without a copy to the host.)")
       .def(
           "set_gpu_tuning",
           [](ConvergeOptions& o, const std::vector<std::string>& assignments) {
-            o.tuning = parse_gpu_tuning(assignments);
+            o.backend_options.tuning = parse_gpu_tuning(assignments);
           },
           "assignments"_a, "The GPU's tuning from KEY=VALUE strings (ValueError naming a bad key)");
 

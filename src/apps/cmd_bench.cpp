@@ -54,10 +54,7 @@ struct BenchArgs {
   int warmup = -1;            // -1: 10 on the GPU, 1 on the CPU
   int spp_per_launch = 1;
   int max_depth = 8;
-  int threads = 0;
-  bool wavefront = true;  // GPU: the wavefront; --megakernel: false
-  std::string traversal = "auto";
-  GpuTuning tuning;       // GPU: --tune
+  BackendOptions backend_options;  // --threads, --wavefront, --traversal, --tune
   std::string json_path;
   bool probe = false;              // the trace stage alone (run_probe)
   uint32_t probe_rays = 1u << 22;  // per launch and ray kind
@@ -190,7 +187,7 @@ int run_probe(const BenchArgs& a) {
   ps.rays = a.probe_rays;
   ps.launches = a.launches ? a.launches : 20;
   ps.warmup = a.warmup >= 0 ? a.warmup : 3;
-  ps.tuning = a.tuning;
+  ps.tuning = a.backend_options.tuning;
   struct Row {
     std::string scene;
     size_t triangles = 0, instances = 0, spheres = 0;
@@ -209,7 +206,7 @@ int run_probe(const BenchArgs& a) {
       continue;
     }
     BackendOptions opts;
-    opts.tuning = a.tuning;
+    opts.tuning = a.backend_options.tuning;
     std::unique_ptr<Backend> backend = make_optix_backend(scene, opts);
     auto* ob = dynamic_cast<OptixBackend*>(backend.get());
     if (device.empty()) {
@@ -273,7 +270,7 @@ int run_probe(const BenchArgs& a) {
              f.closest_other + f.closest_t_off > n / 5000 || f.shadow_mismatched > n / 5000;
   }
   if (!a.json_path.empty()) {
-    json j = bench_json("penumbra bench --probe", device, info, a.tuning);
+    json j = bench_json("penumbra bench --probe", device, info, a.backend_options.tuning);
     j["traversal_auto"] = choice;
     j["settings"] = {{"rays_per_launch", ps.rays}, {"warmup_launches", ps.warmup}, {"timed_launches", ps.launches},
                      {"seed", ps.seed}, {"sets", a.sets}};
@@ -400,12 +397,8 @@ int run_bench(const BenchArgs& a) {
                   {"acceleration structures", (backend_name.empty() ? a.backend : backend_name) == "optix"
                                                   ? 0
                                                   : cpu_backend_bytes(scene)}});
-    BackendOptions opts;
-    opts.threads = a.threads;
+    BackendOptions opts = a.backend_options;
     opts.spp_per_launch = a.spp_per_launch;
-    opts.wavefront = a.wavefront;
-    opts.traversal = a.traversal;
-    opts.tuning = a.tuning;
     std::string note;
     std::unique_ptr<Backend> backend = make_backend(backend_name.empty() ? a.backend : backend_name, scene, opts, &note);
     if (backend_name.empty()) {
@@ -563,7 +556,7 @@ int run_bench(const BenchArgs& a) {
 
   // ---- JSON ----
   if (!a.json_path.empty()) {
-    json j = bench_json("penumbra bench", device_name, info, a.tuning);
+    json j = bench_json("penumbra bench", device_name, info, a.backend_options.tuning);
     j["backend"] = backend_name;
     j["settings"] = {{"width", W},
                      {"height", H},
@@ -650,9 +643,6 @@ Command add_bench_command(CLI::App& app) {
   auto a = std::make_shared<BenchArgs>();
   auto* sub = app.add_subcommand(
       "bench", "Time every built-in scene and strategy: median and spread of many 1-spp launches (table + JSON)");
-  sub->add_option("--backend", a->backend, "cpu, optix, or auto")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"cpu", "optix", "auto"}));
   sub->add_option("--scenes", a->scenes, "Scenes, comma-separated (default: every built-in scene)");
   sub->add_option("--strategies", a->strategies, "Strategies, comma-separated (default: " + strategy_names() + ")")
       ->check(strategy_names_check());
@@ -676,9 +666,7 @@ Command add_bench_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1, 65536));
   sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces")->capture_default_str()->check(CLI::Range(0, 64));
-  sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
-  add_wavefront_options(sub, &a->wavefront, &a->traversal);
-  add_tune_option(sub, &a->tuning);
+  add_backend_options(sub, &a->backend, &a->backend_options, /*gpus=*/false);
   sub->add_option("--json", a->json_path, "Write the results as JSON to this file");
   sub->add_flag("--probe", a->probe,
                 "The trace stage alone: random incoherent rays in each scene's bounds (closest; shadow), traced by "
@@ -686,9 +674,7 @@ Command add_bench_command(CLI::App& app) {
   sub->add_option("--probe-rays", a->probe_rays, "--probe: rays per launch of each kind")
       ->capture_default_str()
       ->check(CLI::Range(1u, 1u << 28));
-  sub->add_option("--set", a->sets, "Override any scene value, e.g. --set light.radius=0.05")
-      ->take_all()
-      ->allow_extra_args(false);
+  add_set_option(sub, &a->sets);
   return {sub, [a]() { return run_bench(*a); }};
 }
 

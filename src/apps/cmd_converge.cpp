@@ -78,15 +78,11 @@ Command add_converge_command(CLI::App& app) {
   sub->add_option("--fit-min-spp", a->fit_min_spp, "Smallest spp used in the log-log fits")
       ->capture_default_str()
       ->check(CLI::Range(1, 1 << 24));
-  sub->add_option("--backend", a->backend, "cpu, optix or auto")->capture_default_str()->check(CLI::IsMember({"cpu", "optix", "auto"}));
-  add_gpus_option(sub, &a->gpus);
-  add_wavefront_options(sub, &a->wavefront, &a->traversal);
-  add_tune_option(sub, &a->tuning);
-  sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  add_backend_options(sub, &a->backend, &a->backend_options, /*gpus=*/true);
   sub->add_flag("--yes", a->yes, "Run even when the estimated time on the CPU is more than an hour");
   sub->add_flag("--estimate-only", a->estimate_only,
                 "Measure and print the estimated run time (JSON on stdout), render nothing else, write nothing");
-  sub->add_option("--set", a->sets, "Override a scene value (repeatable), e.g. --set light.radius=0.05")->allow_extra_args(false);
+  add_set_option(sub, &a->sets);
   return {sub, [a]() {
     ConvergeOptions o = *a;
     if (o.out.empty()) o.out = "converge-" + std::filesystem::path(o.scene).stem().string();

@@ -28,15 +28,11 @@ struct RenderArgs {
   std::string output;
   std::string variance;
   std::string backend = "auto";
-  std::string gpus;
-  bool wavefront = true;  // GPU: the wavefront; --megakernel: false
-  std::string traversal = "auto";
-  GpuTuning tuning;  // GPU: --tune
+  BackendOptions backend_options;  // --threads, --gpus, --wavefront, --traversal, --tune
   IntegratorOptions integrator;
   // kUnset: not given on the command line, keep the scene's value.
   static constexpr long long kUnset = std::numeric_limits<long long>::min();
   long long spp = kUnset, width = kUnset, height = kUnset, max_depth = kUnset, rr_depth = kUnset, seed = kUnset;
-  int threads = 0;
   float exposure = 0.f;
   bool stats = false;
   bool denoise = false;  // also <name>_denoised.<ext>
@@ -145,14 +141,8 @@ int run_render(const RenderArgs& a) {
                {{"film", film_bytes(r.width, r.height)},
                 {"writing the image", image_write_bytes(r.width, r.height)},
                 {"acceleration structures", a.backend == "optix" ? 0 : cpu_backend_bytes(scene)}});
-  BackendOptions opts;
-  opts.threads = a.threads;
-  opts.gpus = a.gpus;
-  opts.wavefront = a.wavefront;
-  opts.traversal = a.traversal;
-  opts.tuning = a.tuning;
   std::string note;
-  std::unique_ptr<Backend> backend = make_backend(a.backend, scene, opts, &note);
+  std::unique_ptr<Backend> backend = make_backend(a.backend, scene, a.backend_options, &note);
   if (a.denoise) check_denoise_backend("--denoise", *backend, denoise, note);  // one line: the note goes into it
   std::fprintf(stderr, "%s\n", note.c_str());
 
@@ -238,16 +228,8 @@ Command add_render_command(CLI::App& app) {
       ->check(render_setting("max_depth"));
   sub->add_option("--rr-depth", a->rr_depth, "Russian roulette starts at this bounce (default: the scene's)")
       ->check(render_setting("rr_depth"));
-  sub->add_option("--backend", a->backend, "cpu, optix, or auto: optix when a GPU and OptiX work, else cpu")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"cpu", "optix", "auto"}));
-  sub->add_option("--set", a->sets, "Override any scene value, e.g. --set light.radius=0.05 --set camera.fov=30")
-      ->take_all()
-      ->allow_extra_args(false);
-  add_gpus_option(sub, &a->gpus);
-  add_wavefront_options(sub, &a->wavefront, &a->traversal);
-  add_tune_option(sub, &a->tuning);
-  sub->add_option("--threads", a->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  add_backend_options(sub, &a->backend, &a->backend_options, /*gpus=*/true);
+  add_set_option(sub, &a->sets);
   sub->add_option("--exposure", a->exposure, "PNG exposure in stops (x 2^stops before sRGB)")
       ->capture_default_str()
       ->check(finite_number())

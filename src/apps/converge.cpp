@@ -193,7 +193,7 @@ Setup prepare(const ConvergeOptions& a) {
       crop[1] + crop[3] > H)
     throw ConvergeOptionError("converge: --crop must be x,y,w,h inside the " + std::to_string(W) + "x" +
                               std::to_string(H) + " image");
-  check_gpus(a.gpus);
+  check_gpus(a.backend_options.gpus);
 
   // The ground truth's cache key covers everything that changes the expected
   // image and its noise: the scene document after overrides (geometry, camera,
@@ -230,13 +230,7 @@ Setup prepare(const ConvergeOptions& a) {
 }
 
 std::unique_ptr<Backend> backend_for(const ConvergeOptions& a, const Scene& scene, std::string* note) {
-  BackendOptions opts;
-  opts.threads = a.threads;
-  opts.gpus = a.gpus;
-  opts.wavefront = a.wavefront;
-  opts.traversal = a.traversal;
-  opts.tuning = a.tuning;
-  return make_backend(a.backend, scene, opts, note);
+  return make_backend(a.backend, scene, a.backend_options, note);
 }
 
 // How the ground truth is rendered: the reference technique and light

@@ -30,7 +30,6 @@ struct ConvergeOptions {
   // "": .penumbra-cache.
   std::string cache;
   std::string backend = "auto";
-  std::string gpus = "all";  // --gpus: the GPUs that split every render (render/backend.h)
   std::string reference_strategy = "solid-angle", reference_mis = "power";
   // How the ground truth selects lights: power, or uniform or bvh (restir's frame passes are not offered: a
   // reference is one unbiased estimator rendered long). Every run's error is against the same reference.
@@ -47,10 +46,12 @@ struct ConvergeOptions {
   // real-time frame shows after N - 1 frames of history (restir's temporal reuse; for independent samples, the
   // error of one sample). summary.json: each technique's "frame".
   int frame_spp = 0;
-  int threads = 0;
-  bool wavefront = true;           // GPU: the wavefront (BackendOptions::wavefront); --megakernel: false
-  std::string traversal = "auto";  // GPU: --traversal
-  GpuTuning tuning{};              // GPU: --tune (BackendOptions::tuning)
+  // --threads, --gpus (the GPUs that split every render; "all" here), --wavefront, --traversal, --tune.
+  BackendOptions backend_options = [] {
+    BackendOptions o;
+    o.gpus = "all";
+    return o;
+  }();
   double threshold = 0.05;
   std::vector<int> crop;  // x, y, w, h; empty: around the light
   bool verbose = true;    // notes and progress bars on stderr

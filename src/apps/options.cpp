@@ -151,7 +151,7 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
       ->check(render_setting("restir.temporal_cap"));
 }
 
-void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal) {
+static void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal) {
   *wavefront = true;
   *traversal = "auto";
   auto* wf = sub->add_flag("--wavefront", *wavefront,
@@ -169,7 +169,7 @@ void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversa
       ->check(CLI::IsMember({"auto", "optix", "cuda"}));
 }
 
-void add_tune_option(CLI::App* sub, GpuTuning* tuning) {
+static void add_tune_option(CLI::App* sub, GpuTuning* tuning) {
   *tuning = GpuTuning();
   sub->add_option_function<std::vector<std::string>>(
          "--tune",
@@ -236,7 +236,7 @@ DenoiseOptions denoise_options(const DenoiseArgs& a, std::string* how) {
   return o;
 }
 
-void add_gpus_option(CLI::App* sub, std::string* gpus) {
+static void add_gpus_option(CLI::App* sub, std::string* gpus) {
   *gpus = "all";
   sub->add_option("--gpus", *gpus,
                   "GPUs of the optix backend: all, a number N (the first N) or a list of CUDA device indices "
@@ -274,6 +274,23 @@ void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::st
   if (o.restir_temporal) overrides->push_back("render.restir.temporal=true");
   if (o.restir_temporal_cap != -std::numeric_limits<double>::infinity())
     overrides->push_back("render.restir.temporal_cap=" + std::to_string(o.restir_temporal_cap));
+}
+
+void add_backend_options(CLI::App* sub, std::string* backend, BackendOptions* options, bool gpus) {
+  *backend = "auto";
+  sub->add_option("--backend", *backend, "cpu, optix, or auto: optix when a GPU and OptiX work, else cpu")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"cpu", "optix", "auto"}));
+  sub->add_option("--threads", options->threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
+  if (gpus) add_gpus_option(sub, &options->gpus);
+  add_wavefront_options(sub, &options->wavefront, &options->traversal);
+  add_tune_option(sub, &options->tuning);
+}
+
+void add_set_option(CLI::App* sub, std::vector<std::string>* sets) {
+  sub->add_option("--set", *sets, "Override any scene value (repeatable), e.g. --set light.radius=0.05 --set camera.fov=30")
+      ->take_all()
+      ->allow_extra_args(false);
 }
 
 }  // namespace pn

@@ -11,6 +11,8 @@
 
 namespace pn {
 
+struct BackendOptions;
+
 struct IntegratorOptions {
   std::string strategy, mis, light_selection;  // empty: the scene's
   // restir's settings (render.restir.*); kUnset / empty: the scene's.
@@ -30,20 +32,20 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o);
 // Appends "render.strategy=..." (and render.restir.*) for the options that were given.
 void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::string>* overrides);
 
-// --gpus (render, converge): which GPUs split the samples of each image; "all"
-// by default. Its syntax is checked when parsed (render/backend.h: check_gpus).
-void add_gpus_option(CLI::App* sub, std::string* gpus);
+// Every option that decides a command's backend (render, bench, converge, view), declared here once with one
+// help text, written straight into the command's BackendOptions (render/backend.h), which make_backend takes:
+//   --backend cpu|optix|auto (into *backend), --threads;
+//   --gpus (where `gpus`: render, converge): which GPUs split the samples of each image, "all" by default, its
+//     syntax checked when parsed (check_gpus);
+//   --wavefront / --megakernel and --traversal: the GPU's path tracer and its trace stage
+//     (backends/optix/WAVEFRONT.md);
+//   --tune KEY=VALUE, repeatable or comma-separated: the GPU's tuning knobs (render/gpu_tuning.h), their table
+//     in --help; a bad key or value is a usage error whose one line names the key and the accepted values.
+// The cpu backend ignores the GPU's options.
+void add_backend_options(CLI::App* sub, std::string* backend, BackendOptions* options, bool gpus);
 
-// --wavefront and --traversal (render, bench, converge, view): the GPU's path tracer and its trace stage
-// (BackendOptions::wavefront, ::traversal; backends/optix/WAVEFRONT.md). The cpu backend ignores them.
-void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal);
-
-struct GpuTuning;
-// --tune KEY=VALUE (render, bench, converge, view: every command that makes a backend), repeatable or
-// comma-separated: the GPU's tuning knobs (render/gpu_tuning.h; BackendOptions::tuning), their table in --help.
-// Checked when parsed: a bad key or value is a usage error (exit status 2) whose one line names the key and the
-// accepted values. The cpu backend ignores them.
-void add_tune_option(CLI::App* sub, GpuTuning* tuning);
+// --set KEY=VALUE (repeatable): any scene value, validated with the scene like the file's own.
+void add_set_option(CLI::App* sub, std::vector<std::string>* sets);
 
 // --denoiser, --denoise-quality, --denoise-clean-aux and --oidn-library (render, view): which denoiser
 // --denoise uses and how (backends/denoise.h). The choices as the command line gave them; denoise_options()

@@ -43,12 +43,8 @@ Command add_view_command(CLI::App& app) {
       "view", "Interactive viewer: navigate a scene, watch the strategies converge, split-screen comparison");
   sub->add_option("scene", a->o.scene, "Built-in scene name (see `penumbra scenes`) or a scene file (.json)")
       ->required();
-  sub->add_option("--backend", a->o.backend, "cpu, optix, or auto: optix when a GPU and OptiX work, else cpu")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"cpu", "optix", "auto"}));
-  sub->add_option("--set", a->o.sets, "Override any scene value, e.g. --set light.radius=0.05 (repeatable)")
-      ->take_all()
-      ->allow_extra_args(false);
+  add_backend_options(sub, &a->o.backend, &a->o.backend_options, /*gpus=*/false);
+  add_set_option(sub, &a->o.sets);
   sub->add_option("--width", a->o.width, "Window width (default: the scene's, fitted to 1280x720)")
       ->check(CLI::Range(16, 16384));
   sub->add_option("--height", a->o.height, "Window height (default: the scene's, fitted to 1280x720)")
@@ -69,9 +65,6 @@ Command add_view_command(CLI::App& app) {
       ->capture_default_str()
       ->check(finite_number())
       ->check(CLI::Range(-64.f, 64.f));
-  sub->add_option("--threads", a->o.threads, "CPU threads (default: all)")->check(CLI::Range(0, 4096));
-  add_wavefront_options(sub, &a->o.wavefront, &a->o.traversal);
-  add_tune_option(sub, &a->o.tuning);
   sub->add_option("--split", a->o.split, "Start in split screen: LEFT,RIGHT strategies, e.g. area,solid-angle")
       ->check(CLI::Validator(
           [](std::string& v) -> std::string {

@@ -309,11 +309,7 @@ void Viewer::load(const std::vector<std::string>& extra) {
   std::vector<std::string> overrides = opt_.sets;
   overrides.insert(overrides.end(), extra.begin(), extra.end());
   auto scene = std::make_unique<Scene>(load_scene(opt_.scene, overrides));
-  BackendOptions bo;
-  bo.threads = opt_.threads;
-  bo.wavefront = opt_.wavefront;
-  bo.traversal = opt_.traversal;
-  bo.tuning = opt_.tuning;
+  const BackendOptions& bo = opt_.backend_options;
   std::string note;
   std::unique_ptr<Backend> backend = make_backend(opt_.backend, *scene, bo, &note);
   if (!backend_) backend_note_ = note;  // printed once the window is open: a failure to open stays one line

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "render/gpu_tuning.h"
+#include "render/backend.h"
 
 namespace pn::viewer {
 
@@ -20,10 +20,7 @@ struct ViewerOptions {
   std::string camera_path;          // scripted actions (camera_path.h)
   int spp_per_frame = 1;
   float exposure = 0.f;
-  int threads = 0;                  // CPU backend threads; 0 = all
-  bool wavefront = true;            // GPU: the wavefront; --megakernel: false
-  std::string traversal = "auto";   // GPU: --traversal
-  GpuTuning tuning{};               // GPU: --tune
+  BackendOptions backend_options;   // --threads, --wavefront, --traversal, --tune
   std::string split;                // "LEFT,RIGHT": start in split-screen mode
   bool equal_time = false;
   bool hide_panel = false;
