@@ -154,7 +154,7 @@ TEST(BadInput, RenderOptionsWorkWithoutARenderBlock) {
   Scene s = load_scene(data("no_render_block.json"), {"render.spp=3", "render.width=20", "render.strategy=\"area\""});
   EXPECT_EQ(s.render.spp, 3);
   EXPECT_EQ(s.render.width, 20);
-  EXPECT_EQ(s.render.strategy, Strategy::Area);
+  EXPECT_EQ(s.render.integrator.strategy, Strategy::Area);
   // Other missing blocks are still errors, naming the --set.
   try {
     load_scene(data("no_render_block.json"), {"nosuch.x=1"});

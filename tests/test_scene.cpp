@@ -53,7 +53,7 @@ TEST(Scene, BuiltinsParseAndHaveOneSphereLight) {
     Scene s = load_scene(b->name);
     EXPECT_EQ(s.lights.size(), 1u) << name;
     EXPECT_EQ(s.lights[0].type, LightType::Sphere) << name;
-    EXPECT_EQ(s.render.mis, Mis::None) << name << ": the thesis's estimator, so that chapter 4 is unchanged";
+    EXPECT_EQ(s.render.integrator.mis, Mis::None) << name << ": the thesis's estimator, so that chapter 4 is unchanged";
     EXPECT_EQ(s.render.width, 1920);
     EXPECT_EQ(s.render.height, 1080);
     EXPECT_GT(s.triangle_count(), 20u);
@@ -79,7 +79,7 @@ TEST(Scene, OverridesReachAnyValue) {
   Scene s = load_scene("cornell-near", {"render.spp=3", "render.strategy=area", "camera.fov=20",
                                         "lights.0.center=[1,2,3]", "materials.red.albedo=0.25"});
   EXPECT_EQ(s.render.spp, 3);
-  EXPECT_EQ(s.render.strategy, Strategy::Area);
+  EXPECT_EQ(s.render.integrator.strategy, Strategy::Area);
   EXPECT_FLOAT_EQ(s.camera.fov, 20.f);
   EXPECT_FLOAT_EQ(s.lights[0].p.z, 3.f);
   // Setting radiance replaces power (they are alternatives).
@@ -250,7 +250,7 @@ TEST(Scene, FuzzedFilesNeverCrash) {
       // Rendering a mutated scene must not crash or produce NaN either.
       s.render.width = std::min(s.render.width, 6);
       s.render.height = std::min(s.render.height, 4);
-      s.render.max_depth = std::min(s.render.max_depth, 4);
+      s.render.integrator.max_depth = std::min(s.render.integrator.max_depth, 4);
       std::string note;
       auto backend = make_backend("cpu", s, BackendOptions{1}, &note);
       FrameSpec f = frame_spec(s);
@@ -300,7 +300,7 @@ TEST(Scene, CornellQuadAndPolygonNear) {
   EXPECT_EQ(q.lights[0].type, LightType::Quad);
   EXPECT_NEAR(q.lights[0].area, 1.30f * 1.05f, 1e-5f);
   EXPECT_LT(q.lights[0].n.y, -0.999f) << "the ceiling light emits downwards";
-  EXPECT_EQ(q.render.mis, Mis::Power);
+  EXPECT_EQ(q.render.integrator.mis, Mis::Power);
   Scene p = load_scene("polygon-near");
   ASSERT_EQ(p.lights.size(), 6u);
   for (const Light& l : p.lights) {
@@ -311,7 +311,7 @@ TEST(Scene, CornellQuadAndPolygonNear) {
       EXPECT_GT(v.z, 5.592f - 1.5f) << "within a fraction of its size from the back wall";
     }
   }
-  EXPECT_EQ(p.render.mis, Mis::Power);
+  EXPECT_EQ(p.render.integrator.mis, Mis::Power);
 }
 
 // "defaults" and "$name": a scene's parameters, set with --set defaults.name=value.

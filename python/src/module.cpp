@@ -424,9 +424,16 @@ them without a copy to the host.)")
       .def_prop_ro("scene", [](Renderer& r) { return PyScene{r.scene()}; })
       .def_prop_ro("settings", [](Renderer& r) {
         const RenderSettings& s = r.settings();
-        json j = {{"width", s.width}, {"height", s.height}, {"spp", s.spp},        {"max_depth", s.max_depth},
-                  {"rr_depth", s.rr_depth}, {"strategy", strategy_name(s.strategy)}, {"mis", mis_name(s.mis)},
-                  {"light_selection", light_selection_name(s.light_selection)}, {"seed", s.seed}};
+        const IntegratorSettings& i = s.integrator;
+        json j = {{"width", s.width},
+                  {"height", s.height},
+                  {"spp", s.spp},
+                  {"max_depth", i.max_depth},
+                  {"rr_depth", i.rr_depth},
+                  {"strategy", strategy_name(i.strategy)},
+                  {"mis", mis_name(i.mis)},
+                  {"light_selection", light_selection_name(i.light_selection)},
+                  {"seed", s.seed}};
         return to_py(j);
       });
 

@@ -227,11 +227,11 @@ json Renderer::stats() const {
   s["width"] = frame_.camera.width;
   s["height"] = frame_.camera.height;
   s["spp"] = spp;
-  s["strategy"] = strategy_name(settings_.strategy);
-  s["mis"] = mis_name(settings_.mis);
-  s["light_selection"] = light_selection_name(settings_.light_selection);
-  s["max_depth"] = settings_.max_depth;
-  s["rr_depth"] = settings_.rr_depth;
+  s["strategy"] = strategy_name(settings_.integrator.strategy);
+  s["mis"] = mis_name(settings_.integrator.mis);
+  s["light_selection"] = light_selection_name(settings_.integrator.light_selection);
+  s["max_depth"] = settings_.integrator.max_depth;
+  s["rr_depth"] = settings_.integrator.rr_depth;
   s["seed"] = settings_.seed;
   // Settings the document has that this list does not name (e.g. render.mis).
   if (scene_.doc.contains("render") && scene_.doc["render"].is_object())

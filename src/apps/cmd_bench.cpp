@@ -438,7 +438,7 @@ int run_bench(const BenchArgs& a) {
     }
 
     std::vector<LightSelection> scene_selections = selections;
-    if (scene_selections.empty()) scene_selections.push_back(scene.render.light_selection);
+    if (scene_selections.empty()) scene_selections.push_back(scene.render.integrator.light_selection);
     for (const LightSelection selection : scene_selections) {
       for (const Technique& technique : techniques) {
         FrameSpec frame = frame_spec(scene);
@@ -451,7 +451,7 @@ int run_bench(const BenchArgs& a) {
         r.scene = scene_name;
         r.strategy = technique_name(technique);
         r.mis = mis_name(technique.mis);
-        r.selection = light_selection_label(selection, scene.render.restir);
+        r.selection = light_selection_label(selection, scene.render.integrator.restir);
         if (warmup > 0) backend->render(frame, film, 0, uint32_t(warmup * a.spp_per_launch));
         const uint32_t first = uint32_t(warmup * a.spp_per_launch);
         std::vector<double> total, trace, acc;

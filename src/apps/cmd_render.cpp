@@ -146,9 +146,10 @@ int run_render(const RenderArgs& a) {
   if (a.denoise) check_denoise_backend("--denoise", *backend, denoise, note);  // one line: the note goes into it
   std::fprintf(stderr, "%s\n", note.c_str());
 
+  const IntegratorSettings& in = r.integrator;
   std::fprintf(stderr, "%s: %dx%d, %d spp, strategy %s, MIS %s, light selection %s, max depth %d, seed %u\n",
-               scene.source.c_str(), r.width, r.height, r.spp, strategy_name(r.strategy), mis_name(r.mis),
-               light_selection_label(r.light_selection, r.restir).c_str(), r.max_depth, r.seed);
+               scene.source.c_str(), r.width, r.height, r.spp, strategy_name(in.strategy), mis_name(in.mis),
+               light_selection_label(in.light_selection, in.restir).c_str(), in.max_depth, r.seed);
   Film film(r.width, r.height);
   ProgressBar bar("rendering");
   backend->render(frame_spec(scene), film, 0, uint32_t(r.spp),

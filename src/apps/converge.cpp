@@ -456,7 +456,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   summary["source"] = setup.source;
   summary["width"] = W;
   summary["height"] = H;
-  summary["max_depth"] = scene.render.max_depth;
+  summary["max_depth"] = scene.render.integrator.max_depth;
   summary["overrides"] = a.sets;
   {  // the scene's lights by kind (reports name them: "320 sphere lights")
     static const char* kKinds[] = {"sphere", "quad", "triangle", "environment"};
@@ -478,7 +478,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
       }
     return n ? m / double(n) : 0.0;
   };
-  summary["light_selection"] = light_selection_label(scene.render.light_selection, scene.render.restir);
+  summary["light_selection"] = light_selection_label(scene.integrator().light_selection, scene.integrator().restir);
   summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)},
                           {"light_selection", light_selection_name(setup.ref_selection)},
                           {"mean", image_mean(ref, false)},

@@ -11,6 +11,7 @@
 #pragma once
 
 #include "common.h"
+#include "enum_names.h"
 #include "light_bvh.h"
 #include "lights.h"
 #include "sampling.h"
@@ -42,6 +43,11 @@ inline const char* light_selection_name(LightSelection s) {
   };
   return int(s) < kNumLightSelections ? names[int(s)] : "?";
 }
+// The method named `name` (false: none is), and every name: "uniform, power, bvh, restir".
+inline bool find_light_selection(const std::string& name, LightSelection* out) {
+  return find_enum(name, kNumLightSelections, light_selection_name, out);
+}
+inline std::string light_selection_names() { return enum_names(kNumLightSelections, light_selection_name); }
 inline const char* light_selection_description(LightSelection s) {
   static const char* descs[] = {
 #define PN_X(e, name, desc) desc,

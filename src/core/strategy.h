@@ -8,6 +8,7 @@
 // per-strategy programs all follow from it.
 #pragma once
 
+#include "enum_names.h"
 #include "light_strategies.h"
 
 namespace pn {
@@ -56,6 +57,11 @@ inline const char* strategy_name(Strategy s) {
   };
   return int(s) < kNumStrategies ? names[int(s)] : "?";
 }
+// The strategy named `name` (false: none is), and every name: "area, solid-angle, ...".
+inline bool find_strategy(const std::string& name, Strategy* out) {
+  return find_enum(name, kNumStrategies, strategy_name, out);
+}
+inline std::string strategy_names() { return enum_names(kNumStrategies, strategy_name); }
 inline const char* strategy_description(Strategy s) {
   static const char* descs[] = {
 #define PN_X(e, name, impl, nee, desc) desc,
@@ -92,6 +98,9 @@ inline const char* mis_name(Mis m) {
   };
   return int(m) < kNumMisModes ? names[int(m)] : "?";
 }
+// The MIS mode named `name` (false: none is), and every name: "none, balance, power".
+inline bool find_mis(const std::string& name, Mis* out) { return find_enum(name, kNumMisModes, mis_name, out); }
+inline std::string mis_names() { return enum_names(kNumMisModes, mis_name); }
 inline const char* mis_description(Mis m) {
   static const char* descs[] = {
 #define PN_X(e, name, desc) desc,

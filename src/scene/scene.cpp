@@ -70,16 +70,7 @@ Camera Scene::make_camera() const {
   return Camera::look_at(camera.eye, camera.target, camera.up, camera.fov, render.width, render.height);
 }
 
-IntegratorSettings Scene::integrator() const {
-  IntegratorSettings s;
-  s.strategy = render.strategy;
-  s.mis = render.mis;
-  s.light_selection = render.light_selection;
-  s.restir = render.restir;
-  s.max_depth = render.max_depth;
-  s.rr_depth = render.rr_depth;
-  return s;
-}
+IntegratorSettings Scene::integrator() const { return render.integrator; }
 
 size_t Scene::triangle_count() const {
   size_t n = 0;

@@ -112,12 +112,10 @@ struct RenderSettings {
   int width = 640;
   int height = 360;
   int spp = 16;
-  int max_depth = 8;
-  int rr_depth = 5;
-  Strategy strategy = Strategy::SolidAngle;
-  Mis mis = Mis::Power;  // what pbrt-v4 and Mitsuba 3 users expect; the thesis's scenes say "none"
-  LightSelection light_selection = LightSelection::Power;
-  RestirSettings restir;  // light_selection "restir" only
+  // The estimator: strategy, MIS (power by default: what pbrt-v4 and Mitsuba 3
+  // users expect; the thesis's scenes say "none"), light selection, restir's
+  // settings, max_depth and rr_depth, as the core's integrator takes them.
+  IntegratorSettings integrator;
   uint32_t seed = 0;
 };
 
@@ -240,18 +238,12 @@ SceneSearch scene_search();
 // dir>/../shared/scenes, ../shared/scenes (relative to the current directory).
 std::vector<std::string> scene_data_roots();
 
-// The names of strategies, MIS modes and light-selection methods: find_*
-// looks one up (false if there is none of that name), parse_* throws SceneError
-// naming `where` and listing the valid names.
-bool find_strategy(const std::string& name, Strategy* out);
+// A strategy, MIS mode or light-selection method by name (core/strategy.h,
+// core/light_selection.h: find_* and *_names beside their tables), or a
+// SceneError naming `where` and listing the valid names.
 Strategy parse_strategy(const std::string& name, const std::string& where);
-std::string strategy_names();  // "area, solid-angle, projected-solid-angle, bsdf"
-bool find_mis(const std::string& name, Mis* out);
 Mis parse_mis(const std::string& name, const std::string& where);
-std::string mis_names();  // "none, balance, power"
-bool find_light_selection(const std::string& name, LightSelection* out);
 LightSelection parse_light_selection(const std::string& name, const std::string& where);
-std::string light_selection_names();  // "uniform, power, bvh, restir"
 // The method for reports: its name, with restir's settings, e.g. "restir (32
 // candidates from power, 2 spatial passes of 3 neighbours within 30 px,
 // unbiased)"; the biased variant says BIASED.

@@ -111,18 +111,18 @@ void parse_render(const Node& n, Scene& s) {
   if (n.has("width")) r.width = n.at("width").integer(1, kMaxResolution);
   if (n.has("height")) r.height = n.at("height").integer(1, kMaxResolution);
   if (n.has("spp")) r.spp = n.at("spp").integer(1, kMaxSpp);
-  if (n.has("max_depth")) r.max_depth = n.at("max_depth").integer(0, kMaxDepth);
-  if (n.has("rr_depth")) r.rr_depth = n.at("rr_depth").integer(1, kMaxDepth);
+  if (n.has("max_depth")) r.integrator.max_depth = n.at("max_depth").integer(0, kMaxDepth);
+  if (n.has("rr_depth")) r.integrator.rr_depth = n.at("rr_depth").integer(1, kMaxDepth);
   // Names of the integrator's choices: an unknown one fails naming its field.
   auto choice = [&](const char* key, auto* out, auto find, const std::string& names) {
     if (!n.has(key)) return;
     Node v = n.at(key);
     if (!find(v.string(), out)) v.fail("unknown " + std::string(key) + " '" + v.string() + "' (expected one of: " + names + ")");
   };
-  choice("strategy", &r.strategy, find_strategy, strategy_names());
-  choice("mis", &r.mis, find_mis, mis_names());
-  choice("light_selection", &r.light_selection, find_light_selection, light_selection_names());
-  if (n.has("restir")) parse_restir(n.at("restir"), &r.restir);
+  choice("strategy", &r.integrator.strategy, find_strategy, strategy_names());
+  choice("mis", &r.integrator.mis, find_mis, mis_names());
+  choice("light_selection", &r.integrator.light_selection, find_light_selection, light_selection_names());
+  if (n.has("restir")) parse_restir(n.at("restir"), &r.integrator.restir);
   if (n.has("seed")) r.seed = uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max())));
 }
 
@@ -455,22 +455,6 @@ void parse_light(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
 }  // namespace
 
 namespace {
-// "a, b, c" of an X-macro enum's names, and the enum of a name.
-template <class E>
-std::string enum_names(int count, const char* (*name)(E)) {
-  std::string out;
-  for (int i = 0; i < count; ++i) out += (i ? ", " : "") + std::string(name(E(i)));
-  return out;
-}
-template <class E>
-bool find_enum(const std::string& text, int count, const char* (*name)(E), E* out) {
-  for (int i = 0; i < count; ++i)
-    if (text == name(E(i))) {
-      *out = E(i);
-      return true;
-    }
-  return false;
-}
 template <class E>
 E parse_enum(const std::string& text, const std::string& where, const char* what, int count, const char* (*name)(E)) {
   E e;
@@ -479,19 +463,11 @@ E parse_enum(const std::string& text, const std::string& where, const char* what
 }
 }  // namespace
 
-std::string strategy_names() { return enum_names(kNumStrategies, strategy_name); }
-bool find_strategy(const std::string& name, Strategy* out) { return find_enum(name, kNumStrategies, strategy_name, out); }
 Strategy parse_strategy(const std::string& name, const std::string& where) {
   return parse_enum(name, where, "strategy", kNumStrategies, strategy_name);
 }
-std::string mis_names() { return enum_names(kNumMisModes, mis_name); }
-bool find_mis(const std::string& name, Mis* out) { return find_enum(name, kNumMisModes, mis_name, out); }
 Mis parse_mis(const std::string& name, const std::string& where) {
   return parse_enum(name, where, "MIS mode", kNumMisModes, mis_name);
-}
-std::string light_selection_names() { return enum_names(kNumLightSelections, light_selection_name); }
-bool find_light_selection(const std::string& name, LightSelection* out) {
-  return find_enum(name, kNumLightSelections, light_selection_name, out);
 }
 std::string light_selection_label(LightSelection method, const RestirSettings& r) {
   std::string s = light_selection_name(method);

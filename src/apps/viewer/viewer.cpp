@@ -278,16 +278,16 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
     choose_display_path(opt_.display, backend_->name(), kInteropBuilt, [] { return std::string(); });  // throws
   light_initial_ = light_applied_ = light_ = LightEdit::of(*scene_);
   camera_ = CameraControl(scene_->camera);
-  strategy_ = scene_->render.strategy;
-  mis_ = scene_->render.mis;
-  selection_ = scene_->render.light_selection;
-  restir_temporal_ = scene_->render.restir.temporal != 0;
-  restir_pairwise_ = scene_->render.restir.pairwise != 0;
-  restir_visibility_reuse_ = scene_->render.restir.visibility_reuse != 0;
-  restir_bvh_source_ = scene_->render.restir.source == LightSelection::Bvh;
-  restir_candidates_ = int(scene_->render.restir.candidates);
-  restir_spatial_ = int(scene_->render.restir.spatial_passes);
-  max_depth_ = scene_->render.max_depth;
+  strategy_ = scene_->render.integrator.strategy;
+  mis_ = scene_->render.integrator.mis;
+  selection_ = scene_->render.integrator.light_selection;
+  restir_temporal_ = scene_->render.integrator.restir.temporal != 0;
+  restir_pairwise_ = scene_->render.integrator.restir.pairwise != 0;
+  restir_visibility_reuse_ = scene_->render.integrator.restir.visibility_reuse != 0;
+  restir_bvh_source_ = scene_->render.integrator.restir.source == LightSelection::Bvh;
+  restir_candidates_ = int(scene_->render.integrator.restir.candidates);
+  restir_spatial_ = int(scene_->render.integrator.restir.spatial_passes);
+  max_depth_ = scene_->render.integrator.max_depth;
   spp_per_frame_ = opt_.spp_per_frame;
   exposure_ = opt_.exposure;
   fly_speed_ = std::max(1e-3f, 0.25f * camera_.distance());  // a quarter of the view distance per second
@@ -458,7 +458,7 @@ std::string Viewer::scene_label() const { return scene_name_; }
 
 // restir's settings as the panel sets them, over the scene's render.restir.
 RestirSettings Viewer::panel_restir() const {
-  RestirSettings r = scene_->render.restir;
+  RestirSettings r = scene_->render.integrator.restir;
   r.temporal = restir_temporal_ ? 1u : 0u;
   r.pairwise = r.unbiased && restir_pairwise_ ? 1u : 0u;
   r.source = restir_bvh_source_ ? LightSelection::Bvh : LightSelection::Power;
@@ -692,7 +692,7 @@ void Viewer::save_camera_file(const std::string& path) {
   overrides.push_back("render.mis=\"" + std::string(mis_name(mis_)) + "\"");
   overrides.push_back("render.light_selection=\"" + std::string(light_selection_name(selection_)) + "\"");
   overrides.push_back(std::string("render.restir.temporal=") + (restir_temporal_ ? "true" : "false"));
-  if (scene_->render.restir.unbiased)  // pairwise MIS is for the unbiased combination only
+  if (scene_->render.integrator.restir.unbiased)  // pairwise MIS is for the unbiased combination only
     overrides.push_back(std::string("render.restir.pairwise=") + (restir_pairwise_ ? "true" : "false"));
   overrides.push_back(std::string("render.restir.visibility_reuse=") + (restir_visibility_reuse_ ? "true" : "false"));
   overrides.push_back(std::string("render.restir.source=\"") + (restir_bvh_source_ ? "bvh" : "power") + "\"");
@@ -840,7 +840,7 @@ void Viewer::draw_panel() {
   enum_combo("light selection", &selection_, kNumLightSelections, light_selection_name);
   if (selection_ == LightSelection::Restir) {
     ImGui::Checkbox("temporal reuse", &restir_temporal_);
-    if (scene_->render.restir.unbiased) ImGui::Checkbox("pairwise MIS", &restir_pairwise_);
+    if (scene_->render.integrator.restir.unbiased) ImGui::Checkbox("pairwise MIS", &restir_pairwise_);
     // Off: unshadowed targets in the reuse, one shadow ray when shading (the study's restir-unshadowed).
     ImGui::Checkbox("visibility reuse", &restir_visibility_reuse_);
     // ris-bvh of the study: BVH candidates, no spatial pass, no temporal reuse.
