@@ -4,15 +4,12 @@
 #include <filesystem>
 #include <sstream>
 
-#include <tiny_obj_loader.h>
-
 namespace pn {
 
-bool load_obj_triangles(const std::string& path, std::vector<Vec3>* positions,
-                        std::vector<std::array<uint32_t, 3>>* indices, std::string* error) {
+bool read_obj_file(const std::string& path, ObjFile* out, std::string* error) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
-    *error = "mesh file '" + path + "' does not exist or is not a file";
+    *error = "OBJ file '" + path + "' does not exist or is not a file";
     return false;
   }
   tinyobj::ObjReaderConfig config;
@@ -22,12 +19,22 @@ bool load_obj_triangles(const std::string& path, std::vector<Vec3>* positions,
   tinyobj::ObjReader reader;
   if (!reader.ParseFromFile(path, config)) {
     std::string msg = reader.Error();
-    while (!msg.empty() && (msg.back() == '\n' || msg.back() == '\r')) msg.pop_back();
-    for (char& c : msg) if (c == '\n') c = ' ';
-    *error = "cannot read mesh file '" + path + "': " + (msg.empty() ? "parse error" : msg);
+    msg = msg.substr(0, msg.find_first_of("\r\n"));  // its first line
+    *error = "cannot read OBJ file '" + path + "': " + (msg.empty() ? "parse error" : msg);
     return false;
   }
-  const auto& attrib = reader.GetAttrib();
+  out->attrib = reader.GetAttrib();
+  out->shapes = reader.GetShapes();
+  out->materials = reader.GetMaterials();
+  out->warning = reader.Warning();
+  return true;
+}
+
+bool load_obj_triangles(const std::string& path, std::vector<Vec3>* positions,
+                        std::vector<std::array<uint32_t, 3>>* indices, std::string* error) {
+  ObjFile obj;
+  if (!read_obj_file(path, &obj, error)) return false;
+  const auto& attrib = obj.attrib;
   size_t nv = attrib.vertices.size() / 3;
   positions->clear();
   indices->clear();
@@ -40,7 +47,7 @@ bool load_obj_triangles(const std::string& path, std::vector<Vec3>* positions,
     }
     positions->push_back(p);
   }
-  for (const auto& shape : reader.GetShapes()) {
+  for (const auto& shape : obj.shapes) {
     const auto& idx = shape.mesh.indices;
     if (idx.size() % 3 != 0) {
       *error = "mesh file '" + path + "': shape '" + shape.name + "' is not triangulated";

@@ -11,9 +11,9 @@
 #include <unordered_map>
 
 #include <tiny_gltf.h>
-#include <tiny_obj_loader.h>
 
 #include "io/image_load.h"
+#include "scene/mesh_io.h"
 
 namespace pn {
 namespace fs = std::filesystem;
@@ -204,22 +204,16 @@ struct ObjKeyHash {
 };
 
 LoadedModel load_obj(ModelContext& ctx) {
-  tinyobj::ObjReaderConfig config;
-  config.triangulate = true;
-  config.vertex_color = false;
-  config.mtl_search_path = ctx.dir;
-  tinyobj::ObjReader reader;
-  if (!reader.ParseFromFile(ctx.path, config)) {
-    std::string msg = first_line(reader.Error());
-    ctx.fail("cannot read OBJ file '" + ctx.path + "': " + (msg.empty() ? "parse error" : msg));
-  }
+  ObjFile obj;
+  std::string error;
+  if (!read_obj_file(ctx.path, &obj, &error)) ctx.fail(error);
   {
-    std::stringstream ws(reader.Warning());
+    std::stringstream ws(obj.warning);
     for (std::string line; std::getline(ws, line);)
       if (!one_line(line).empty()) ctx.warn(line);
   }
-  const auto& attrib = reader.GetAttrib();
-  const auto& materials = reader.GetMaterials();
+  const auto& attrib = obj.attrib;
+  const auto& materials = obj.materials;
   const size_t nv = attrib.vertices.size() / 3, nt = attrib.texcoords.size() / 2, nn = attrib.normals.size() / 3;
   if (nv > kMaxElements) ctx.fail("'" + ctx.path + "': too many vertices (" + std::to_string(nv) + ")");
 
@@ -238,7 +232,7 @@ LoadedModel load_obj(ModelContext& ctx) {
     }
     return uint32_t(default_mat);
   };
-  bool mtllib_missing = materials.empty() && reader.Warning().find("Material file") != std::string::npos;
+  bool mtllib_missing = materials.empty() && obj.warning.find("Material file") != std::string::npos;
   if (mtllib_missing) ctx.warn("its material library (.mtl) could not be read: faces get a default grey material");
 
   TriangleMesh mesh;
@@ -279,7 +273,7 @@ LoadedModel load_obj(ModelContext& ctx) {
       mesh.positions.push_back(Vec3(attrib.vertices[3 * i], attrib.vertices[3 * i + 1], attrib.vertices[3 * i + 2]));
   }
   size_t degenerate = 0;
-  for (const auto& shape : reader.GetShapes()) {
+  for (const auto& shape : obj.shapes) {
     const auto& idx = shape.mesh.indices;
     if (idx.size() % 3 != 0) ctx.fail("'" + ctx.path + "': shape '" + shape.name + "' is not triangulated");
     for (size_t f = 0; f < idx.size() / 3; ++f) {
