@@ -13,7 +13,7 @@ packages=(
   libtinyexr-dev         # EXR output
   libtinyobjloader-dev   # OBJ meshes
   libtinygltf-dev        # glTF 2.0 models (header; compiled in src/scene/tinygltf_impl.cpp)
-  assimp-testmodels      # tests: real OBJ and glTF files made by others (tests/test_models.cpp)
+  assimp-testmodels      # tests: real OBJ and glTF files made by others (tests/scene/test_models.cpp)
   libgtest-dev           # tests
   libglfw3-dev           # viewer: window and OpenGL context (penumbra view)
   libgl-dev              # viewer: OpenGL headers (GL/glcorearb.h)

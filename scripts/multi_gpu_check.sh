@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The study on every GPU of one machine (issue 15): a 1080p ground truth on one
 # GPU and on N, its speed-up and its image. Needs a machine with several NVIDIA
-# GPUs, so it cannot run in CI (tests/test_multi_backend.cpp checks the split on
+# GPUs, so it cannot run in CI (tests/render/test_multi_backend.cpp checks the split on
 # CPU "devices" there).
 #
 #   scripts/multi_gpu_check.sh [BUILD_DIR]

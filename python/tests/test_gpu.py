@@ -101,7 +101,7 @@ def test_gpus_selects_gpus_and_splits_the_samples():
     with pytest.raises(ValueError, match="gpus"):
         penumbra.render("cornell-sphere", spp=1, backend="optix", gpus=n + 1, **SIZE)
     if n < 2:
-        pytest.skip("one GPU: the split across GPUs needs two (tests/test_multi_backend.cpp checks it on the CPU)")
+        pytest.skip("one GPU: the split across GPUs needs two (tests/render/test_multi_backend.cpp checks it on the CPU)")
     two = penumbra.render("cornell-sphere", spp=512, backend="optix", gpus=2, **SIZE)
     assert not two.on_gpu  # accumulated on the host
     assert two.rgb.tobytes() == one.rgb.tobytes() and two.variance.tobytes() == one.variance.tobytes()

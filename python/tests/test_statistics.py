@@ -24,7 +24,7 @@ def test_strategies_agree(solid_angle, strategy, seed):
 
 
 def test_bsdf_sampling_agrees_at_image_level():
-    # As tests/test_render.cpp: BSDF sampling alone finds the light too rarely
+    # As tests/backends/test_render.cpp: BSDF sampling alone finds the light too rarely
     # for per-pixel variance estimates to hold; the image means must agree.
     def sphere(strategy, spp, seed):
         return penumbra.render("cornell-sphere", strategy=strategy, spp=spp, seed=seed, backend="cpu", width=24,

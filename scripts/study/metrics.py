@@ -1,5 +1,5 @@
 """The ratios and fits the reports print, from `penumbra converge`'s summaries
-(tests/test_study_metrics.py works their answers out by hand)."""
+(tests/scripts/test_study_metrics.py works their answers out by hand)."""
 import csv
 import math
 import statistics

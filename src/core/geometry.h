@@ -378,7 +378,7 @@ PN_FN void instance_to_world(const Affine& to_world, const Affine& to_object, Ve
   // the cuda traversal) applies to its origin in floats: up to gamma(3) (|B| |o| + |b|) per object-space axis for
   // to_object = (B, b), which to_world's linear part A carries back as A times that. The bound covers it, or the
   // ray can start on the surface's far side in object space and find the triangle it leaves (bunnies: 3 rays in
-  // 20,000 leaving the surface did, tests/test_cuda_traversal.cpp). An identity instance is traced in world space
+  // 20,000 leaving the surface did, tests/backends/test_cuda_traversal.cpp). An identity instance is traced in world space
   // (or through an exact identity product) and pays nothing.
   if (!to_object.is_identity()) {
     const float* b = to_object.m;

@@ -4,7 +4,7 @@
 // pbrt-v4's SampleLi / PDF_Li or Mitsuba's sample_direction / pdf_direction do:
 //   sample_<type>(light, ctx, u) -> LightSample {wi, y, pdf, ...}
 //   pdf_<type>(light, ctx, wi)   -> the solid-angle density sample_<type> has at wi
-// and the two agree (tests/test_light_strategies.cpp checks it on random
+// and the two agree (tests/core/test_light_strategies.cpp checks it on random
 // configurations, with chi-square tests of the samples against pdf()). MIS needs
 // pdf() for directions that BSDF sampling found. The environment is sampled by
 // its image for every strategy (core/light_sampler.h); the strategies compare

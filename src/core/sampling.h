@@ -2,7 +2,7 @@
 //
 // Each routine comes in a triad where one exists: sample, pdf and inverse (the
 // u that a sample came from), so tests can feed any point set, check the pair
-// against each other and round-trip the inverse (tests/test_sampling.cpp).
+// against each other and round-trip the inverse (tests/core/test_sampling.cpp).
 // Directions are unit vectors; pdfs of directions are per unit solid angle,
 // pdfs of points per unit area, pdfs over [0,1]^2 per unit parameter area.
 // Spherical triangles and rectangles are in core/spherical_polygons.h, the

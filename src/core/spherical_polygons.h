@@ -17,7 +17,7 @@
 // Here Arvo's terms are rewritten without cancellation (half-angle forms, 1 - q
 // directly), Urena's angle is added as cos/sin pairs, and one Newton step on the
 // accurate solid angle finishes the rectangle's u.x: in float, samples map back
-// to u within 2e-5 down to the 3e-4 sr bound (tests/test_sampling.cpp checks 2e-3).
+// to u within 2e-5 down to the 3e-4 sr bound (tests/core/test_sampling.cpp checks 2e-3).
 // Double precision did the same at eight times the GPU code (4,600 SASS
 // instructions a sampler against 480-1,860): the GPU's megakernel is bound by
 // instruction fetch.

@@ -7,7 +7,7 @@
 // a function of pixel, sample index and seed), so the split changes nothing but
 // the order in which double sums are added: where a range holds whole launches
 // of the single device (split_granularity) the float image is the one device's
-// image (tests/test_render.cpp checks it bit for bit on CPU "devices").
+// image (tests/backends/test_render.cpp checks it bit for bit on CPU "devices").
 #pragma once
 
 #include <memory>

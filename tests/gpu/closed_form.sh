@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The closed-form whole-render tests (tests/test_closed_form.cpp: a plane under a sphere, a quad and a triangle,
+# The closed-form whole-render tests (tests/backends/test_closed_form.cpp: a plane under a sphere, a quad and a triangle,
 # every strategy x MIS mode, pixel by pixel against the exact integral) on the GPU, with the power the GPU affords:
 # PENUMBRA_TEST_SPP_SCALE times CI's samples, so that every technique's image mean has a standard error below
 # 0.01% (CTest gpu.closed_form.MODE).

@@ -55,7 +55,7 @@ for scene in "${scenes[@]}"; do
     strategy=${t%%:*} mis=${t##*:}
     n=${scene}_${strategy}_${mis}
     extra=(--strategy "$strategy" --mis "$mis")
-    # Light sampling alone is too heavy-tailed for a z-test on glossy's 0.2 roughness (tests/test_render.cpp,
+    # Light sampling alone is too heavy-tailed for a z-test on glossy's 0.2 roughness (tests/backends/test_render.cpp,
     # MisAgrees): compare it at 0.6.
     [[ $scene == glossy && $mis == none ]] && extra+=(--set defaults.roughness=0.6)
     # glossy: robust_pair, with the samples for its test to see a 1% bias (95% power). Measured on the CPU (seeds 0

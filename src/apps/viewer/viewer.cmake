@@ -7,7 +7,7 @@
 option(PENUMBRA_VIEWER "Build the interactive viewer when GLFW, OpenGL and Dear ImGui are found" ON)
 
 # What needs no window (camera control, camera paths, progressive images and
-# their tone-mapping) is always built, and unit-tested in tests/test_viewer.cpp.
+# their tone-mapping) is always built, and unit-tested in tests/apps/test_viewer.cpp.
 add_library(penumbra_viewer_core STATIC
   src/apps/viewer/camera_control.cpp
   src/apps/viewer/camera_path.cpp

@@ -17,7 +17,7 @@
 //     accumulate(i)               every pixel of the wave: its samples' L, in sample order
 // A path's shadow result is consumed (apply) before its next hit (shade), the one ordering rule of the step
 // functions, so the image is the depth-first driver's bit for bit wherever the arithmetic is the same (the CPU:
-// tests/test_path_schedule.cpp). Queue order is whatever the pushes make it (atomics): each entry names its slot and
+// tests/core/test_path_schedule.cpp). Queue order is whatever the pushes make it (atomics): each entry names its slot and
 // a path touches only its own slot, so the order changes nothing. max_depth + 1 iterations always suffice: shade
 // at depth max_depth makes neither ray nor query, and a query made at depth d is consumed at iteration d + 1.
 //
@@ -340,7 +340,7 @@ PN_FN void store_prev(PrevVertex* p, const PrevVertex& v) {
 // (restir's first vertex takes its pixel from item_pixel), and the 64-bit division they cost showed in shade's
 // profile. The radiance starts at 0: a step adds to it at most once (on_hit without a tracer of its own, on_miss,
 // on_shadow_result), so adding what it holds afterwards to the pool's (add_radiance) is the same sum, and a path
-// whose step adds nothing reads and writes no radiance (tests/test_path_schedule.cpp: the same image bit for bit
+// whose step adds nothing reads and writes no radiance (tests/core/test_path_schedule.cpp: the same image bit for bit
 // as the depth-first driver's). The
 // previous vertex moves only where a step reads it (path_reads_prev: MIS).
 PN_FN PathState load_path(const WavefrontView& w, uint32_t slot, const TraceRay* ray, bool prev) {
@@ -510,7 +510,7 @@ PN_HD void accumulate(uint32_t i, const WavefrontView& w, Sink& sink) {
 // a pass makes depends only on its inputs, never on an answer (the combinations trace wherever a target is
 // positive, and use the answer only after), so both runs make the same ones, and the replay computes what tracing
 // each query on the spot would, bit for bit (the CPU's Wavefront schedule against depth-first:
-// tests/test_path_schedule.cpp). A chunk of pixels at a time: each pixel keeps the queue positions of its at most
+// tests/core/test_path_schedule.cpp). A chunk of pixels at a time: each pixel keeps the queue positions of its at most
 // max_rays queries (restir_reuse_max_rays, restir_shade_max_rays) in ray queue 0's slots, which a frame pass does
 // not otherwise use, so chunk.count * max_rays must not exceed the pool's capacity.
 

@@ -8,7 +8,7 @@ point task kill their own worker halfway (PENUMBRA_STUDY_FAULT) and Ray runs
 them again, and the study is interrupted (Ctrl-C) after a few tasks and resumed
 by the same command from the tasks it had finished.
 
-    PYTHONPATH=build/python python3 tests/study_ray_check.py --local build/tests/study-smoke --work /tmp/study-ray
+    PYTHONPATH=build/python python3 tests/scripts/study_ray_check.py --local build/tests/study-smoke --work /tmp/study-ray
 
 Exit status 77 (CTest's skip) where Ray is not installed.
 """
@@ -89,7 +89,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--local", required=True, help="the local executor's smoke study (study_smoke's --out)")
     ap.add_argument("--work", required=True, help="a folder for this test (emptied first)")
-    ap.add_argument("--study", default=os.path.join(here, "..", "scripts", "study.py"))
+    ap.add_argument("--study", default=os.path.join(here, "..", "..", "scripts", "study.py"))
     ap.add_argument("--interrupt-after", type=int, default=8, help="Ctrl-C after this many finished tasks")
     args = ap.parse_args()
     try:

@@ -156,7 +156,7 @@ TEST(GpuTuning, DocsTableIsTheCodesTable) {
   std::stringstream ss;
   ss << f.rdbuf();
   const std::string doc = ss.str();
-  const std::string begin = "<!-- gpu-tuning-table: generated, tests/test_gpu_tuning.cpp checks it -->\n";
+  const std::string begin = "<!-- gpu-tuning-table: generated, tests/render/test_gpu_tuning.cpp checks it -->\n";
   const std::string end = "<!-- /gpu-tuning-table -->";
   const size_t a = doc.find(begin), b = doc.find(end);
   ASSERT_NE(a, std::string::npos) << path << " has no " << begin;

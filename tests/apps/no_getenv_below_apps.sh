@@ -3,7 +3,7 @@
 # Python arguments); code below src/apps never reads the environment (src/apps/environment.h reads what the
 # applications need, once). Fails, listing them, where a file under src/ outside src/apps calls getenv (or
 # secure_getenv, or reads environ).
-#   tests/no_getenv_below_apps.sh SRC_DIR
+#   tests/apps/no_getenv_below_apps.sh SRC_DIR
 set -uo pipefail
 src=${1:?usage: no_getenv_below_apps.sh SRC_DIR}
 [[ -d $src/apps ]] || { echo "no_getenv_below_apps.sh: $src is not penumbra's src/ (no apps/ in it)"; exit 1; }
