@@ -187,6 +187,8 @@ TEST(CameraPath, BadInputIsOneLineNamingTheEntry) {
   EXPECT_EQ(error("[{\"frame\": 1, \"orbit\": [1]}]"), "p.json: [0].orbit: must be an array of 2 numbers (got [1])");
   EXPECT_EQ(error("[{\"frame\": 1, \"dolly\": 0}]"), "p.json: [0].dolly: must be > 0 and <= 100 (got 0)");
   EXPECT_NE(error("[{\"frame\": 1, \"strategy\": \"cone\"}]").find("p.json: [0].strategy"), std::string::npos);
+  EXPECT_EQ(error("[{\"frame\": 1, \"key\": \"X\"}]").rfind("p.json: [0].key: must be a key: 1, 2, ", 0), 0u);
+  EXPECT_EQ(error("[{\"frame\": 1, \"key\": \"shift+R\"}]").rfind("p.json: [0].key: must be a key", 0), 0u);
   EXPECT_NE(error("[{\"frame\": 1, \"screenshot\": \"x.jpg\"}]").find("p.json: [0].screenshot: x.jpg: unknown image format"),
             std::string::npos);
   EXPECT_NE(error("[{\"frame\": 1, \"camera\": {\"eye\": [0, 0, 0], \"target\": [0, 0, 0]}}]")

@@ -159,7 +159,7 @@ def frames_path_and_split(view, penumbra, env, how):
         {"frame": 4, "screenshot": "start.png"},
         {"frame": 4, "orbit": [25, 8], "dolly": 0.8, "save_camera": "moved.json"},
         {"frame": 8, "screenshot": "moved.png"},
-        {"frame": 8, "strategy": "area"},
+        {"frame": 8, "key": "1"},  # the window's key 1: the first strategy, area
         {"frame": 12, "screenshot": "area.png"},
         {"frame": 12, "window_screenshot": "window.png"},
         {"frame": 12, "quit": True},
@@ -177,11 +177,11 @@ def frames_path_and_split(view, penumbra, env, how):
     run(render + ["moved.json", "--strategy", "area", "-o", "area_render.png"])
     same_bytes("start.png", "start_render.png", "the viewer's 4 frames of 1 spp are not `render --spp 4`")
     same_bytes("moved.png", "moved_render.png", "after the camera move the viewer does not show the saved camera")
-    same_bytes("area.png", "area_render.png", "after the strategy switch the viewer does not show `--strategy area`")
+    same_bytes("area.png", "area_render.png", "after key 1 the viewer does not show `--strategy area`")
     # The window as shown: the image with the panel over it, so not the image alone.
     check_not_blank("window.png")
     check_differ("window.png", "area.png", "the panel is drawn over the image")
-    print(f"ok: {how}: camera move (mean difference {d1:.1f}/255) and strategy switch ({d2:.1f}/255), "
+    print(f"ok: {how}: camera move (mean difference {d1:.1f}/255) and key 1's strategy switch ({d2:.1f}/255), "
           "each identical to `penumbra render`; the window's screenshot shows the panel")
 
     # 3. Split screen at equal spp and at equal time; EXR screenshot.

@@ -29,4 +29,15 @@ std::vector<PathAction> parse_camera_path(const std::string& text, const std::st
 // The action names the format knows, for documentation and messages.
 const std::vector<std::string>& camera_path_keys();
 
+// The viewer's keys by name, one table for the window's key presses and the
+// camera path's "key" action ({"frame": N, "key": "N"}): "1".."9" (a strategy;
+// "shift+1".. its right side in split screen), "R", "F", "P", "N", "Tab".
+struct ViewerKey {
+  const char* name;
+  const char* does;
+};
+const std::vector<ViewerKey>& viewer_keys();
+// Whether `name` is one of them, "shift+" prefixed where that means something.
+bool is_viewer_key(const std::string& name);
+
 }  // namespace pn::viewer

@@ -185,6 +185,7 @@ class Viewer {
   void screenshot_button();
   void window_screenshot(const std::string& path);
   void set_strategy_key(int index, bool right_side);
+  void press(const std::string& key);  // a key of viewer_keys() (camera_path.h), from the window or a script
   void save_camera_file(const std::string& path);
   void load_camera_file(const std::string& path);
   std::string scene_label() const;
@@ -718,18 +719,35 @@ void Viewer::set_strategy_key(int index, bool right_side) {
   else (right_side ? right_ : left_) = s;
 }
 
+void Viewer::press(const std::string& key) {
+  const bool shift = key.rfind("shift+", 0) == 0;
+  const std::string k = shift ? key.substr(6) : key;
+  if (k.size() == 1 && k[0] >= '1' && k[0] <= '9') set_strategy_key(k[0] - '1', shift);
+  else if (k == "R") camera_.reset();
+  else if (k == "F") fly_ = !fly_;
+  else if (k == "P") screenshot_requested_ = true;
+  else if (k == "N") denoise_ = !denoise_;
+  else if (k == "Tab") panel_ = !panel_;
+}
+
+// The window's keys, by their names in viewer_keys(), unless the panel is typing or has the keyboard (Tab always
+// reaches the viewer but while typing).
 void Viewer::on_key(GLFWwindow* w, int key, int, int action, int mods) {
   auto* v = static_cast<Viewer*>(glfwGetWindowUserPointer(w));
   if (action != GLFW_PRESS || !v->imgui_) return;
   const ImGuiIO& io = ImGui::GetIO();
   if (io.WantTextInput) return;  // typing a file name
-  if (key == GLFW_KEY_TAB) v->panel_ = !v->panel_;
+  if (key == GLFW_KEY_TAB) return v->press("Tab");
   if (io.WantCaptureKeyboard) return;
-  if (key >= GLFW_KEY_1 && key <= GLFW_KEY_9) v->set_strategy_key(key - GLFW_KEY_1, mods & GLFW_MOD_SHIFT);
-  if (key == GLFW_KEY_R) v->camera_.reset();
-  if (key == GLFW_KEY_F) v->fly_ = !v->fly_;
-  if (key == GLFW_KEY_P) v->screenshot_requested_ = true;
-  if (key == GLFW_KEY_N) v->denoise_ = !v->denoise_;
+  std::string name;
+  if (key >= GLFW_KEY_1 && key <= GLFW_KEY_9) name = std::string(1, char('1' + (key - GLFW_KEY_1)));
+  else if (key == GLFW_KEY_R) name = "R";
+  else if (key == GLFW_KEY_F) name = "F";
+  else if (key == GLFW_KEY_P) name = "P";
+  else if (key == GLFW_KEY_N) name = "N";
+  else return;
+  if (mods & GLFW_MOD_SHIFT && name.size() == 1 && name[0] >= '1' && name[0] <= '9') name = "shift+" + name;
+  v->press(name);
 }
 
 void Viewer::on_scroll(GLFWwindow* w, double, double dy) {
@@ -1024,6 +1042,7 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "window_screenshot") pending_window_shots_.push_back(v.get<std::string>());
   else if (k == "save_camera") save_camera_file(v.get<std::string>());
   else if (k == "load_camera") load_camera_file(v.get<std::string>());
+  else if (k == "key") press(v.get<std::string>());
   else if (k == "quit") quit_ = true;
 }
 
