@@ -72,16 +72,19 @@ bool same(const RestirSettings& a, const RestirSettings& b) {
          a.radius == b.radius && a.unbiased == b.unbiased && a.source == b.source && a.temporal == b.temporal &&
          a.temporal_cap == b.temporal_cap && a.pairwise == b.pairwise && a.visibility_reuse == b.visibility_reuse;
 }
+bool same(const IntegratorSettings& a, const IntegratorSettings& b) {
+  return a.strategy == b.strategy && a.mis == b.mis && a.light_selection == b.light_selection &&
+         same(a.restir, b.restir) && a.max_depth == b.max_depth && a.rr_depth == b.rr_depth;
+}
 
 // Everything that changes the rendered image (not exposure: that is display
 // only). Compared every frame; any difference restarts the accumulation.
 struct ImageSettings {
   CameraDesc camera;
-  Strategy strategy = Strategy::SolidAngle;
-  Mis mis = Mis::Power;
-  LightSelection selection = LightSelection::Power;
-  RestirSettings restir;  // selection restir only (else the defaults: changing the panel's restarts nothing)
-  int max_depth = 0;
+  // The estimator; its strategy is the image's without split screen. restir's
+  // settings are the scene's unless restir selects the lights (so that the
+  // panel's restir controls restart nothing then).
+  IntegratorSettings integrator;
   int width = 0, height = 0;
   bool split = false;  // the divider is not here: it only chooses which image each column shows
   Strategy left = Strategy::Area, right = Strategy::SolidAngle;
@@ -89,10 +92,9 @@ struct ImageSettings {
   std::vector<std::string> scene_overrides;  // the light's edits, on top of the command line's
 
   bool operator==(const ImageSettings& o) const {
-    return same(camera, o.camera) && strategy == o.strategy && mis == o.mis && selection == o.selection &&
-           same(restir, o.restir) && max_depth == o.max_depth && width == o.width && height == o.height &&
-           split == o.split && left == o.left &&
-           right == o.right && equal_time == o.equal_time && scene_overrides == o.scene_overrides;
+    return same(camera, o.camera) && same(integrator, o.integrator) && width == o.width && height == o.height &&
+           split == o.split && left == o.left && right == o.right && equal_time == o.equal_time &&
+           scene_overrides == o.scene_overrides;
   }
 };
 
@@ -130,6 +132,18 @@ void enum_combo(const char* label, E* value, int count, const char* (*name)(E)) 
           },
           &names, count))
     *value = E(i);
+}
+
+// ImGui's widgets on the settings' own fields: a 0/1 flag, a count clamped to
+// [lo, most] (typed values may leave the slider's range).
+void flag_checkbox(const char* label, uint32_t* flag) {
+  bool b = *flag != 0;
+  if (ImGui::Checkbox(label, &b)) *flag = b ? 1u : 0u;
+}
+void count_slider(const char* label, uint32_t* count, int lo, int hi, int most, ImGuiSliderFlags flags = 0) {
+  int v = int(*count);
+  ImGui::SliderInt(label, &v, lo, hi, "%d", flags);
+  *count = uint32_t(std::clamp(v, lo, most));
 }
 
 std::string num(float v) { return shortest_number(v).dump(); }
@@ -175,7 +189,6 @@ class Viewer {
   void apply(const PathAction& a);
   // Helpers.
   ImageSettings wanted() const;
-  RestirSettings panel_restir() const;
   int divider_column() const;  // first column of the right side
   void restart(const ImageSettings& s);
   std::vector<float> composed_mean() const;
@@ -211,15 +224,7 @@ class Viewer {
 
   // What the user controls.
   CameraControl camera_;
-  Strategy strategy_ = Strategy::SolidAngle;
-  Mis mis_ = Mis::Power;
-  LightSelection selection_ = LightSelection::Power;
-  bool restir_temporal_ = false;
-  bool restir_pairwise_ = false;
-  bool restir_visibility_reuse_ = true;
-  bool restir_bvh_source_ = false;
-  int restir_candidates_ = 32, restir_spatial_ = 2;
-  int max_depth_ = 8;
+  IntegratorSettings integrator_;  // the estimator as the panel, keys and scripts set it; from the scene's
   int spp_per_frame_ = 1;
   float exposure_ = 0.f;
   float scale_ = 1.f;
@@ -279,16 +284,7 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
     choose_display_path(opt_.display, backend_->name(), kInteropBuilt, [] { return std::string(); });  // throws
   light_initial_ = light_applied_ = light_ = LightEdit::of(*scene_);
   camera_ = CameraControl(scene_->camera);
-  strategy_ = scene_->render.integrator.strategy;
-  mis_ = scene_->render.integrator.mis;
-  selection_ = scene_->render.integrator.light_selection;
-  restir_temporal_ = scene_->render.integrator.restir.temporal != 0;
-  restir_pairwise_ = scene_->render.integrator.restir.pairwise != 0;
-  restir_visibility_reuse_ = scene_->render.integrator.restir.visibility_reuse != 0;
-  restir_bvh_source_ = scene_->render.integrator.restir.source == LightSelection::Bvh;
-  restir_candidates_ = int(scene_->render.integrator.restir.candidates);
-  restir_spatial_ = int(scene_->render.integrator.restir.spatial_passes);
-  max_depth_ = scene_->render.integrator.max_depth;
+  integrator_ = scene_->integrator();
   spp_per_frame_ = opt_.spp_per_frame;
   exposure_ = opt_.exposure;
   fly_speed_ = std::max(1e-3f, 0.25f * camera_.distance());  // a quarter of the view distance per second
@@ -457,26 +453,13 @@ Viewer::~Viewer() {
 
 std::string Viewer::scene_label() const { return scene_name_; }
 
-// restir's settings as the panel sets them, over the scene's render.restir.
-RestirSettings Viewer::panel_restir() const {
-  RestirSettings r = scene_->render.integrator.restir;
-  r.temporal = restir_temporal_ ? 1u : 0u;
-  r.pairwise = r.unbiased && restir_pairwise_ ? 1u : 0u;
-  r.source = restir_bvh_source_ ? LightSelection::Bvh : LightSelection::Power;
-  r.visibility_reuse = restir_visibility_reuse_ ? 1u : 0u;
-  r.candidates = uint32_t(restir_candidates_);
-  r.spatial_passes = uint32_t(restir_spatial_);
-  return r;
-}
-
 ImageSettings Viewer::wanted() const {
   ImageSettings s;
   s.camera = camera_.desc();
-  s.strategy = strategy_;
-  s.mis = mis_;
-  s.selection = selection_;
-  if (selection_ == LightSelection::Restir) s.restir = panel_restir();
-  s.max_depth = max_depth_;
+  s.integrator = integrator_;
+  RestirSettings& r = s.integrator.restir;
+  if (integrator_.light_selection != LightSelection::Restir) r = scene_->render.integrator.restir;
+  if (!r.unbiased) r.pairwise = 0;  // pairwise MIS is for the unbiased combination only
   int fw = 0, fh = 0;
   framebuffer_size(&fw, &fh);
   s.width = std::max(1, int(std::lround(fw * scale_)));
@@ -529,10 +512,7 @@ void Viewer::restart(const ImageSettings& s) {
   FrameSpec base = frame_spec(*scene_);
   const CameraDesc& c = s.camera;
   base.camera = Camera::look_at(c.eye, c.target, c.up, c.fov, s.width, s.height);
-  base.integrator.max_depth = s.max_depth;
-  base.integrator.mis = s.mis;
-  base.integrator.light_selection = s.selection;
-  if (s.selection == LightSelection::Restir) base.integrator.restir = s.restir;
+  base.integrator = s.integrator;
   try {
     display_->resize(s.width, s.height);
   } catch (const std::exception& e) {  // registering the new size's pixel buffer with CUDA failed
@@ -569,7 +549,7 @@ void Viewer::restart(const ImageSettings& s) {
   guides_ = GuideImages();  // rendered again when next shown denoised
   sides_.clear();
   if (!s.split) {
-    sides_.push_back(make_side(s.strategy, base.seed));
+    sides_.push_back(make_side(s.integrator.strategy, base.seed));
   } else {
     // The right side gets its own seed, so that the two sides' errors are
     // independent (and equal strategies show a seam: they are two estimates).
@@ -639,7 +619,7 @@ std::string Viewer::screenshot_stem() const {
             "spp_vs_" + strategy_name(sides_[1].strategy) + "-" + std::to_string(sides_[1].image->samples()) + "spp";
     stem += applied_.equal_time ? "_equal-time" : "_equal-spp";
   }
-  std::snprintf(buf, sizeof buf, "_d%d", applied_.max_depth);
+  std::snprintf(buf, sizeof buf, "_d%d", applied_.integrator.max_depth);
   stem += buf;
   if (light_applied_.sphere) {
     std::snprintf(buf, sizeof buf, "_r%g", double(light_applied_.radius));
@@ -689,17 +669,19 @@ void Viewer::save_camera_file(const std::string& path) {
   // and the panel's overrides, the strategy and depth, and this camera.
   std::vector<std::string> overrides = opt_.sets;
   overrides.insert(overrides.end(), applied_.scene_overrides.begin(), applied_.scene_overrides.end());
-  overrides.push_back("render.strategy=\"" + std::string(strategy_name(strategy_)) + "\"");
-  overrides.push_back("render.mis=\"" + std::string(mis_name(mis_)) + "\"");
-  overrides.push_back("render.light_selection=\"" + std::string(light_selection_name(selection_)) + "\"");
-  overrides.push_back(std::string("render.restir.temporal=") + (restir_temporal_ ? "true" : "false"));
-  if (scene_->render.integrator.restir.unbiased)  // pairwise MIS is for the unbiased combination only
-    overrides.push_back(std::string("render.restir.pairwise=") + (restir_pairwise_ ? "true" : "false"));
-  overrides.push_back(std::string("render.restir.visibility_reuse=") + (restir_visibility_reuse_ ? "true" : "false"));
-  overrides.push_back(std::string("render.restir.source=\"") + (restir_bvh_source_ ? "bvh" : "power") + "\"");
-  overrides.push_back("render.restir.candidates=" + std::to_string(restir_candidates_));
-  overrides.push_back("render.restir.spatial_passes=" + std::to_string(restir_spatial_));
-  overrides.push_back("render.max_depth=" + std::to_string(max_depth_));
+  const IntegratorSettings& in = integrator_;
+  const RestirSettings& r = in.restir;
+  overrides.push_back("render.strategy=\"" + std::string(strategy_name(in.strategy)) + "\"");
+  overrides.push_back("render.mis=\"" + std::string(mis_name(in.mis)) + "\"");
+  overrides.push_back("render.light_selection=\"" + std::string(light_selection_name(in.light_selection)) + "\"");
+  overrides.push_back(std::string("render.restir.temporal=") + (r.temporal ? "true" : "false"));
+  if (r.unbiased)  // pairwise MIS is for the unbiased combination only
+    overrides.push_back(std::string("render.restir.pairwise=") + (r.pairwise ? "true" : "false"));
+  overrides.push_back(std::string("render.restir.visibility_reuse=") + (r.visibility_reuse ? "true" : "false"));
+  overrides.push_back(std::string("render.restir.source=\"") + light_selection_name(r.source) + "\"");
+  overrides.push_back("render.restir.candidates=" + std::to_string(r.candidates));
+  overrides.push_back("render.restir.spatial_passes=" + std::to_string(r.spatial_passes));
+  overrides.push_back("render.max_depth=" + std::to_string(in.max_depth));
   std::string source;
   nlohmann::json doc = load_scene_json(opt_.scene, overrides, &source);
   save_camera(path, camera_.desc(), doc);
@@ -715,7 +697,7 @@ void Viewer::load_camera_file(const std::string& path) {
 void Viewer::set_strategy_key(int index, bool right_side) {
   if (index < 0 || index >= kNumStrategies) return;
   Strategy s = Strategy(index);
-  if (!split_) strategy_ = s;
+  if (!split_) integrator_.strategy = s;
   else (right_side ? right_ : left_) = s;
 }
 
@@ -851,27 +833,28 @@ void Viewer::draw_panel() {
     if (changed) *s = Strategy(i);
   };
   ImGui::Separator();
-  if (!split_) strategy_combo("strategy", &strategy_);
-  enum_combo("MIS", &mis_, kNumMisModes, mis_name);
+  IntegratorSettings& in = integrator_;
+  if (!split_) strategy_combo("strategy", &in.strategy);
+  enum_combo("MIS", &in.mis, kNumMisModes, mis_name);
   // How the light of each sample is chosen (restir with the scene's
   // render.restir settings; temporal reuse between frames as the panel says).
-  enum_combo("light selection", &selection_, kNumLightSelections, light_selection_name);
-  if (selection_ == LightSelection::Restir) {
-    ImGui::Checkbox("temporal reuse", &restir_temporal_);
-    if (scene_->render.integrator.restir.unbiased) ImGui::Checkbox("pairwise MIS", &restir_pairwise_);
+  enum_combo("light selection", &in.light_selection, kNumLightSelections, light_selection_name);
+  if (in.light_selection == LightSelection::Restir) {
+    RestirSettings& r = in.restir;
+    flag_checkbox("temporal reuse", &r.temporal);
+    if (r.unbiased) flag_checkbox("pairwise MIS", &r.pairwise);
     // Off: unshadowed targets in the reuse, one shadow ray when shading (the study's restir-unshadowed).
-    ImGui::Checkbox("visibility reuse", &restir_visibility_reuse_);
+    flag_checkbox("visibility reuse", &r.visibility_reuse);
     // ris-bvh of the study: BVH candidates, no spatial pass, no temporal reuse.
-    ImGui::Checkbox("BVH candidates", &restir_bvh_source_);
-    ImGui::SliderInt("candidates", &restir_candidates_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
-    ImGui::SliderInt("spatial passes", &restir_spatial_, 0, 4);
-    restir_candidates_ = std::clamp(restir_candidates_, 1, int(kMaxRestirCandidates));  // typed values too
-    restir_spatial_ = std::clamp(restir_spatial_, 0, int(kMaxRestirPasses));
-    ImGui::TextDisabled("%s", light_selection_label(selection_, panel_restir()).c_str());
+    bool bvh = r.source == LightSelection::Bvh;
+    if (ImGui::Checkbox("BVH candidates", &bvh)) r.source = bvh ? LightSelection::Bvh : LightSelection::Power;
+    count_slider("candidates", &r.candidates, 1, 256, int(kMaxRestirCandidates), ImGuiSliderFlags_Logarithmic);
+    count_slider("spatial passes", &r.spatial_passes, 0, 4, int(kMaxRestirPasses));
+    ImGui::TextDisabled("%s", light_selection_label(in.light_selection, r).c_str());
   }
   ImGui::TextDisabled("%zu lights", scene_->lights.size());
   ImGui::SliderInt("spp / frame", &spp_per_frame_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
-  ImGui::SliderInt("max depth", &max_depth_, 0, 32);
+  ImGui::SliderInt("max depth", &in.max_depth, 0, 32);
   ImGui::SliderFloat("exposure", &exposure_, -8.f, 8.f, "%+.1f stops");
   ImGui::SliderFloat("resolution", &scale_, 0.05f, 2.f, "x %.2f", ImGuiSliderFlags_Logarithmic);
   ImGui::Checkbox("denoise (N)", &denoise_);
@@ -1013,17 +996,17 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "fov") camera_.set_fov(v.get<float>());
   else if (k == "fly") fly_ = v.get<bool>();
   else if (k == "fly_speed") fly_speed_ = v.get<float>();
-  else if (k == "strategy") strategy_ = strategy();
-  else if (k == "mis") mis_ = parse_mis(v.get<std::string>(), a.where);
-  else if (k == "light_selection") selection_ = parse_light_selection(v.get<std::string>(), a.where);
-  else if (k == "restir_temporal") restir_temporal_ = v.get<bool>();
-  else if (k == "restir_pairwise") restir_pairwise_ = v.get<bool>();
-  else if (k == "restir_bvh_candidates") restir_bvh_source_ = v.get<bool>();
-  else if (k == "restir_visibility_reuse") restir_visibility_reuse_ = v.get<bool>();
-  else if (k == "restir_candidates") restir_candidates_ = v.get<int>();
-  else if (k == "restir_spatial") restir_spatial_ = v.get<int>();
+  else if (k == "strategy") integrator_.strategy = strategy();
+  else if (k == "mis") integrator_.mis = parse_mis(v.get<std::string>(), a.where);
+  else if (k == "light_selection") integrator_.light_selection = parse_light_selection(v.get<std::string>(), a.where);
+  else if (k == "restir_temporal") integrator_.restir.temporal = v.get<bool>();
+  else if (k == "restir_pairwise") integrator_.restir.pairwise = v.get<bool>();
+  else if (k == "restir_bvh_candidates") integrator_.restir.source = v.get<bool>() ? LightSelection::Bvh : LightSelection::Power;
+  else if (k == "restir_visibility_reuse") integrator_.restir.visibility_reuse = v.get<bool>();
+  else if (k == "restir_candidates") integrator_.restir.candidates = v.get<uint32_t>();
+  else if (k == "restir_spatial") integrator_.restir.spatial_passes = v.get<uint32_t>();
   else if (k == "spp_per_frame") spp_per_frame_ = v.get<int>();
-  else if (k == "max_depth") max_depth_ = v.get<int>();
+  else if (k == "max_depth") integrator_.max_depth = v.get<int>();
   else if (k == "exposure") exposure_ = v.get<float>();
   else if (k == "scale") scale_ = v.get<float>();
   else if (k == "light_radius" || k == "light_center" || k == "light_power") {
