@@ -288,7 +288,8 @@ void add_backend_options(CLI::App* sub, std::string* backend, BackendOptions* op
 }
 
 void add_set_option(CLI::App* sub, std::vector<std::string>* sets) {
-  sub->add_option("--set", *sets, "Override any scene value (repeatable), e.g. --set light.radius=0.05 --set camera.fov=30")
+  sub->add_option("--set", *sets,
+                  "Override any scene value (repeatable), e.g. --set light.radius=0.05 --set camera.fov=30")
       ->take_all()
       ->allow_extra_args(false);
 }

@@ -149,7 +149,8 @@ HeadlessGl::HeadlessGl() : egl_(std::make_unique<Egl>()) {
     e.surface = e.CreatePbufferSurface(e.display, config, pbuffer);
   }
   if (!e.MakeCurrent(e.display, e.surface, e.surface, e.context))
-    throw std::runtime_error("--headless: cannot make the OpenGL context current (EGL error " + hex(e.GetError()) + ")");
+    throw std::runtime_error("--headless: cannot make the OpenGL context current (EGL error " + hex(e.GetError()) +
+                             ")");
 }
 
 HeadlessGl::~HeadlessGl() = default;

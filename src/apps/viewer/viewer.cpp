@@ -1001,7 +1001,8 @@ void Viewer::apply(const PathAction& a) {
   else if (k == "light_selection") integrator_.light_selection = parse_light_selection(v.get<std::string>(), a.where);
   else if (k == "restir_temporal") integrator_.restir.temporal = v.get<bool>();
   else if (k == "restir_pairwise") integrator_.restir.pairwise = v.get<bool>();
-  else if (k == "restir_bvh_candidates") integrator_.restir.source = v.get<bool>() ? LightSelection::Bvh : LightSelection::Power;
+  else if (k == "restir_bvh_candidates")
+    integrator_.restir.source = v.get<bool>() ? LightSelection::Bvh : LightSelection::Power;
   else if (k == "restir_visibility_reuse") integrator_.restir.visibility_reuse = v.get<bool>();
   else if (k == "restir_candidates") integrator_.restir.candidates = v.get<uint32_t>();
   else if (k == "restir_spatial") integrator_.restir.spatial_passes = v.get<uint32_t>();
