@@ -32,7 +32,7 @@ struct RenderArgs {
   IntegratorOptions integrator;
   // kUnset: not given on the command line, keep the scene's value.
   static constexpr long long kUnset = std::numeric_limits<long long>::min();
-  long long spp = kUnset, width = kUnset, height = kUnset, max_depth = kUnset, rr_depth = kUnset, seed = kUnset;
+  long long spp = kUnset, width = kUnset, height = kUnset, rr_depth = kUnset;
   float exposure = 0.f;
   bool stats = false;
   bool denoise = false;  // also <name>_denoised.<ext>
@@ -130,9 +130,7 @@ int run_render(const RenderArgs& a) {
   set_int("render.spp", a.spp);
   set_int("render.width", a.width);
   set_int("render.height", a.height);
-  set_int("render.max_depth", a.max_depth);
   set_int("render.rr_depth", a.rr_depth);
-  set_int("render.seed", a.seed);
   Scene scene = load_scene(a.scene, overrides);
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
 
@@ -223,10 +221,6 @@ Command add_render_command(CLI::App& app) {
   sub->add_option("--width", a->width, "Image width in pixels (default: the scene's)")->check(render_setting("width"));
   sub->add_option("--height", a->height, "Image height in pixels (default: the scene's)")
       ->check(render_setting("height"));
-  sub->add_option("--seed", a->seed, "Random seed, 0..4294967295 (default: the scene's)")
-      ->check(render_setting("seed"));
-  sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces (default: the scene's)")
-      ->check(render_setting("max_depth"));
   sub->add_option("--rr-depth", a->rr_depth, "Russian roulette starts at this bounce (default: the scene's)")
       ->check(render_setting("rr_depth"));
   add_backend_options(sub, &a->backend, &a->backend_options, /*gpus=*/true);

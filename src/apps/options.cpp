@@ -122,6 +122,9 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
   sub->add_option("--light-selection", o->light_selection,
                   "How the light of each light sample is chosen (default: the scene's, else power):" + selections)
       ->check(render_setting("light_selection", true));
+  sub->add_option("--max-depth", o->max_depth, "Maximum number of bounces (default: the scene's)")
+      ->check(render_setting("max_depth"));
+  sub->add_option("--seed", o->seed, "Random seed, 0..4294967295 (default: the scene's)")->check(render_setting("seed"));
   auto* g = sub->add_option_group("restir", "ReSTIR DI (--light-selection restir); defaults: the scene's render.restir");
   g->add_option("--restir-candidates", o->restir_candidates, "Candidates per pixel, M (default 32)")
       ->check(render_setting("restir.candidates"));
@@ -258,6 +261,8 @@ void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::st
   if (!o.strategy.empty()) overrides->push_back("render.strategy=\"" + o.strategy + "\"");
   if (!o.mis.empty()) overrides->push_back("render.mis=\"" + o.mis + "\"");
   if (!o.light_selection.empty()) overrides->push_back("render.light_selection=\"" + o.light_selection + "\"");
+  if (o.max_depth != IntegratorOptions::kUnset) overrides->push_back("render.max_depth=" + std::to_string(o.max_depth));
+  if (o.seed != IntegratorOptions::kUnset) overrides->push_back("render.seed=" + std::to_string(o.seed));
   // Validated with the scene (render.restir.*: one line naming the field).
   auto set_int = [&](const char* key, long long v) {
     if (v != IntegratorOptions::kUnset) overrides->push_back(std::string("render.restir.") + key + "=" + std::to_string(v));

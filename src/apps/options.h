@@ -1,6 +1,8 @@
 // Command-line options that several subcommands share, declared once: the
-// integrator's choices (--strategy, --mis, --light-selection), which become
-// scene overrides (render.strategy=...) validated with the scene like any --set.
+// integrator's choices (--strategy, --mis, --light-selection, --max-depth,
+// restir's) and the run's --seed, which become scene overrides
+// (render.strategy=...) validated with the scene like any --set; what makes a
+// backend; --set; the denoiser's.
 #pragma once
 
 #include <limits>
@@ -14,9 +16,10 @@ namespace pn {
 struct BackendOptions;
 
 struct IntegratorOptions {
+  static constexpr long long kUnset = std::numeric_limits<long long>::min();  // not given: the scene's
   std::string strategy, mis, light_selection;  // empty: the scene's
+  long long max_depth = kUnset, seed = kUnset;  // --max-depth, --seed (render.max_depth, render.seed)
   // restir's settings (render.restir.*); kUnset / empty: the scene's.
-  static constexpr long long kUnset = std::numeric_limits<long long>::min();
   long long restir_candidates = kUnset, restir_spatial = kUnset, restir_neighbors = kUnset;
   double restir_radius = -std::numeric_limits<double>::infinity();
   std::string restir_source;

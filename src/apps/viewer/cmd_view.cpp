@@ -1,7 +1,6 @@
 // `penumbra view`: registered in every build, so that a penumbra built without
 // GLFW/OpenGL/Dear ImGui says so in one line instead of "unknown subcommand".
 #include <algorithm>
-#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -16,16 +15,12 @@ namespace {
 
 struct ViewArgs {
   viewer::ViewerOptions o;
-  IntegratorOptions integrator;
-  static constexpr long long kUnset = std::numeric_limits<long long>::min();
-  long long max_depth = kUnset, seed = kUnset;
+  IntegratorOptions integrator;  // --strategy, --mis, ..., --max-depth, --seed
 };
 
 int run_view(ViewArgs a) {
   // Like `render`, command-line settings are scene overrides, validated with the scene.
   append_integrator_overrides(a.integrator, &a.o.sets);
-  if (a.max_depth != ViewArgs::kUnset) a.o.sets.push_back("render.max_depth=" + std::to_string(a.max_depth));
-  if (a.seed != ViewArgs::kUnset) a.o.sets.push_back("render.seed=" + std::to_string(a.seed));
 #if PENUMBRA_HAVE_VIEWER
   return viewer::run_viewer(a.o);
 #else
@@ -57,10 +52,6 @@ Command add_view_command(CLI::App& app) {
   sub->add_option("--spp-per-frame", a->o.spp_per_frame, "Samples per pixel added each frame")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
-  sub->add_option("--max-depth", a->max_depth, "Maximum number of bounces (default: the scene's)")
-      ->check(render_setting("max_depth"));
-  sub->add_option("--seed", a->seed, "Random seed, 0..4294967295 (default: the scene's)")
-      ->check(render_setting("seed"));
   sub->add_option("--exposure", a->o.exposure, "Display exposure in stops")
       ->capture_default_str()
       ->check(finite_number())
