@@ -84,6 +84,9 @@ endif()
 if(PENUMBRA_HAVE_VIEWER)
   add_library(penumbra_viewer STATIC
     src/apps/viewer/viewer.cpp
+    src/apps/viewer/scheduler.cpp
+    src/apps/viewer/actions.cpp
+    src/apps/viewer/panel.cpp
     src/apps/viewer/gl_display.cpp
     src/apps/viewer/headless_gl.cpp
     ${_pn_imgui_backend_sources})

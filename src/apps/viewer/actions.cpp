@@ -1,0 +1,257 @@
+// What changes the viewer besides the panel (viewer_state.h): keys by name
+// (viewer_keys, camera_path.h), the mouse, camera-path actions, screenshots
+// and camera files.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include "apps/viewer/viewer_state.h"
+#include "io/image.h"
+#include "io/output.h"
+
+namespace pn::viewer {
+
+// Settings in the file name: scene, strategies and their spp, depth, light radius, size, exposure.
+std::string Viewer::screenshot_stem() const {
+  char buf[256];
+  std::string stem = scene_name_ + "_";
+  if (sides_.size() == 1) {
+    stem += std::string(strategy_name(sides_[0].strategy)) + "_" + std::to_string(sides_[0].image->samples()) + "spp";
+  } else {
+    stem += std::string(strategy_name(sides_[0].strategy)) + "-" + std::to_string(sides_[0].image->samples()) +
+            "spp_vs_" + strategy_name(sides_[1].strategy) + "-" + std::to_string(sides_[1].image->samples()) + "spp";
+    stem += applied_.equal_time ? "_equal-time" : "_equal-spp";
+  }
+  std::snprintf(buf, sizeof buf, "_d%d", applied_.integrator.max_depth);
+  stem += buf;
+  if (light_applied_.sphere) {
+    std::snprintf(buf, sizeof buf, "_r%g", double(light_applied_.radius));
+    stem += buf;
+  }
+  std::snprintf(buf, sizeof buf, "_%dx%d", applied_.width, applied_.height);
+  stem += buf;
+  if (exposure_ != 0.f) {
+    std::snprintf(buf, sizeof buf, "_e%+g", double(exposure_));
+    stem += buf;
+  }
+  return stem;
+}
+
+void Viewer::screenshot(const std::string& path) {
+  write_image(path, applied_.width, applied_.height, composed_mean(), exposure_);
+  std::fprintf(stderr, "wrote %s\n", path.c_str());
+}
+
+// The panel's button (and P): PNG and EXR side by side, never overwriting.
+void Viewer::screenshot_button() {
+  if (!started_) return;
+  namespace fs = std::filesystem;
+  std::string stem = screenshot_stem(), base = stem;
+  for (int k = 2; fs::exists(base + ".png") || fs::exists(base + ".exr"); ++k) base = stem + "_" + std::to_string(k);
+  try {
+    screenshot(base + ".png");
+    screenshot(base + ".exr");
+    status_ = "wrote " + base + ".png and .exr";
+  } catch (const std::exception& e) {
+    status_ = e.what();
+  }
+}
+
+void Viewer::window_screenshot(const std::string& path) {
+  int fw, fh;
+  framebuffer_size(&fw, &fh);
+  std::vector<unsigned char> px = read_framebuffer_rgb(fw, fh, offscreen_ != nullptr);
+  const std::vector<uint8_t> png = encode_png(path, fw, fh, 3, px.data());
+  write_file_atomic(path, png.data(), png.size());
+  std::fprintf(stderr, "wrote %s (the %s, %dx%d)\n", path.c_str(), offscreen_ ? "offscreen framebuffer" : "window", fw,
+               fh);
+}
+
+void Viewer::save_camera_file(const std::string& path) {
+  // A new file is the whole scene as the viewer shows it: the command line's
+  // and the panel's overrides, the strategy and depth, and this camera.
+  std::vector<std::string> overrides = opt_.sets;
+  overrides.insert(overrides.end(), applied_.scene_overrides.begin(), applied_.scene_overrides.end());
+  const IntegratorSettings& in = integrator_;
+  const RestirSettings& r = in.restir;
+  overrides.push_back("render.strategy=\"" + std::string(strategy_name(in.strategy)) + "\"");
+  overrides.push_back("render.mis=\"" + std::string(mis_name(in.mis)) + "\"");
+  overrides.push_back("render.light_selection=\"" + std::string(light_selection_name(in.light_selection)) + "\"");
+  overrides.push_back(std::string("render.restir.temporal=") + (r.temporal ? "true" : "false"));
+  if (r.unbiased)  // pairwise MIS is for the unbiased combination only
+    overrides.push_back(std::string("render.restir.pairwise=") + (r.pairwise ? "true" : "false"));
+  overrides.push_back(std::string("render.restir.visibility_reuse=") + (r.visibility_reuse ? "true" : "false"));
+  overrides.push_back(std::string("render.restir.source=\"") + light_selection_name(r.source) + "\"");
+  overrides.push_back("render.restir.candidates=" + std::to_string(r.candidates));
+  overrides.push_back("render.restir.spatial_passes=" + std::to_string(r.spatial_passes));
+  overrides.push_back("render.max_depth=" + std::to_string(in.max_depth));
+  std::string source;
+  nlohmann::json doc = load_scene_json(opt_.scene, overrides, &source);
+  save_camera(path, camera_.desc(), doc);
+  status_ = "saved the camera to " + path;
+  std::fprintf(stderr, "%s\n", status_.c_str());
+}
+
+void Viewer::load_camera_file(const std::string& path) {
+  camera_.set(load_camera(path));
+  status_ = "loaded the camera of " + path;
+}
+
+void Viewer::set_strategy_key(int index, bool right_side) {
+  if (index < 0 || index >= kNumStrategies) return;
+  Strategy s = Strategy(index);
+  if (!split_) integrator_.strategy = s;
+  else (right_side ? right_ : left_) = s;
+}
+
+void Viewer::press(const std::string& key) {
+  const bool shift = key.rfind("shift+", 0) == 0;
+  const std::string k = shift ? key.substr(6) : key;
+  if (k.size() == 1 && k[0] >= '1' && k[0] <= '9') set_strategy_key(k[0] - '1', shift);
+  else if (k == "R") camera_.reset();
+  else if (k == "F") fly_ = !fly_;
+  else if (k == "P") screenshot_requested_ = true;
+  else if (k == "N") denoise_ = !denoise_;
+  else if (k == "Tab") panel_ = !panel_;
+}
+
+// The window's keys, by their names in viewer_keys(), unless the panel is typing or has the keyboard (Tab always
+// reaches the viewer but while typing).
+void Viewer::on_key(GLFWwindow* w, int key, int, int action, int mods) {
+  auto* v = static_cast<Viewer*>(glfwGetWindowUserPointer(w));
+  if (action != GLFW_PRESS || !v->imgui_) return;
+  const ImGuiIO& io = ImGui::GetIO();
+  if (io.WantTextInput) return;  // typing a file name
+  if (key == GLFW_KEY_TAB) return v->press("Tab");
+  if (io.WantCaptureKeyboard) return;
+  std::string name;
+  if (key >= GLFW_KEY_1 && key <= GLFW_KEY_9) name = std::string(1, char('1' + (key - GLFW_KEY_1)));
+  else if (key == GLFW_KEY_R) name = "R";
+  else if (key == GLFW_KEY_F) name = "F";
+  else if (key == GLFW_KEY_P) name = "P";
+  else if (key == GLFW_KEY_N) name = "N";
+  else return;
+  if (mods & GLFW_MOD_SHIFT && name.size() == 1 && name[0] >= '1' && name[0] <= '9') name = "shift+" + name;
+  v->press(name);
+}
+
+void Viewer::on_scroll(GLFWwindow* w, double, double dy) {
+  auto* v = static_cast<Viewer*>(glfwGetWindowUserPointer(w));
+  if (v->imgui_ && ImGui::GetIO().WantCaptureMouse) return;
+  v->scroll_ += dy;
+}
+
+void Viewer::handle_input(double dt) {
+  const ImGuiIO& io = ImGui::GetIO();
+  int ww, wh;
+  glfwGetWindowSize(window_, &ww, &wh);
+  double x, y;
+  glfwGetCursorPos(window_, &x, &y);
+  const double dx = x - last_x_, dy = y - last_y_;
+  last_x_ = x;
+  last_y_ = y;
+  const bool left = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+  const bool middle = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
+  const bool shift = glfwGetKey(window_, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS ||
+                     glfwGetKey(window_, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
+
+  // A drag starts outside the panel and lasts until its button is released.
+  if (!left && !middle) drag_ = Drag::None;
+  bool starting = false;
+  if (drag_ == Drag::None && (left || middle) && !io.WantCaptureMouse) {
+    double divider_x = applied_.split ? double(divider_column()) / applied_.width * ww : -1e9;
+    if (left && !shift && std::abs(x - divider_x) <= 6.0) drag_ = Drag::Divider;
+    else if (middle || shift) drag_ = Drag::Pan;
+    else drag_ = fly_ ? Drag::Look : Drag::Orbit;
+    starting = true;  // the cursor may have travelled far since the last (slow) frame: no jump
+  }
+  const float deg_per_pixel = 0.3f;
+  switch (starting ? Drag::None : drag_) {
+    case Drag::Orbit:  // the scene follows the cursor
+      if (dx || dy) camera_.orbit(-float(dx) * deg_per_pixel, float(dy) * deg_per_pixel);
+      break;
+    case Drag::Look:
+      if (dx || dy) camera_.look(float(dx) * deg_per_pixel * 0.5f, -float(dy) * deg_per_pixel * 0.5f);
+      break;
+    case Drag::Pan:
+      if (dx || dy) camera_.pan(float(dx / wh), float(dy / wh));
+      break;
+    case Drag::Divider:
+      divider_ = float(std::clamp(x / std::max(ww, 1), 0.0, 1.0));
+      break;
+    case Drag::None:
+      break;
+  }
+  if (scroll_ != 0) {
+    if (fly_) fly_speed_ *= float(std::pow(1.25, scroll_));
+    else camera_.dolly(float(std::pow(0.85, scroll_)));  // wheel up: closer
+    scroll_ = 0;
+  }
+  if (fly_ && !io.WantCaptureKeyboard) {
+    auto down = [&](int k) { return glfwGetKey(window_, k) == GLFW_PRESS ? 1.f : 0.f; };
+    float step = fly_speed_ * float(std::min(dt, 0.1)) * (shift ? 4.f : 1.f);  // a slow frame never jumps far
+    float r = down(GLFW_KEY_D) - down(GLFW_KEY_A), u = down(GLFW_KEY_E) - down(GLFW_KEY_Q),
+          f = down(GLFW_KEY_W) - down(GLFW_KEY_S);
+    if (r || u || f) camera_.move(r * step, u * step, f * step);
+  }
+}
+
+void Viewer::apply(const PathAction& a) {
+  const auto& v = a.value;
+  auto f = [&](size_t i) { return v[i].get<float>(); };
+  auto v3 = [&]() { return v.is_array() ? Vec3(f(0), f(1), f(2)) : Vec3(v.get<float>()); };
+  auto strategy = [&]() { return parse_strategy(v.get<std::string>(), a.where); };
+  const std::string& k = a.key;
+  if (k == "orbit") camera_.orbit(f(0), f(1));
+  else if (k == "look") camera_.look(f(0), f(1));
+  else if (k == "pan") camera_.pan(f(0), f(1));
+  else if (k == "dolly") camera_.dolly(v.get<float>());
+  else if (k == "move") camera_.move(f(0), f(1), f(2));
+  else if (k == "camera") camera_.set(parse_scene(nlohmann::json{{"camera", v}}, a.where, ".").camera);
+  else if (k == "reset") camera_.reset();
+  else if (k == "fov") camera_.set_fov(v.get<float>());
+  else if (k == "fly") fly_ = v.get<bool>();
+  else if (k == "fly_speed") fly_speed_ = v.get<float>();
+  else if (k == "strategy") integrator_.strategy = strategy();
+  else if (k == "mis") integrator_.mis = parse_mis(v.get<std::string>(), a.where);
+  else if (k == "light_selection") integrator_.light_selection = parse_light_selection(v.get<std::string>(), a.where);
+  else if (k == "restir_temporal") integrator_.restir.temporal = v.get<bool>();
+  else if (k == "restir_pairwise") integrator_.restir.pairwise = v.get<bool>();
+  else if (k == "restir_bvh_candidates")
+    integrator_.restir.source = v.get<bool>() ? LightSelection::Bvh : LightSelection::Power;
+  else if (k == "restir_visibility_reuse") integrator_.restir.visibility_reuse = v.get<bool>();
+  else if (k == "restir_candidates") integrator_.restir.candidates = v.get<uint32_t>();
+  else if (k == "restir_spatial") integrator_.restir.spatial_passes = v.get<uint32_t>();
+  else if (k == "spp_per_frame") spp_per_frame_ = v.get<int>();
+  else if (k == "max_depth") integrator_.max_depth = v.get<int>();
+  else if (k == "exposure") exposure_ = v.get<float>();
+  else if (k == "scale") scale_ = v.get<float>();
+  else if (k == "light_radius" || k == "light_center" || k == "light_power") {
+    if (!light_.sphere) throw SceneError(a.where + ": the scene's first light is not a sphere");
+    if (k == "light_radius") light_.radius = v.get<float>();
+    else if (k == "light_center") light_.center = v3();
+    else light_.power = v3();
+  } else if (k == "split") split_ = v.get<bool>();
+  else if (k == "split_left") left_ = strategy();
+  else if (k == "split_right") right_ = strategy();
+  else if (k == "divider") divider_ = v.get<float>();
+  else if (k == "equal_time") equal_time_ = v.get<bool>();
+  else if (k == "panel") panel_ = v.get<bool>();
+  else if (k == "denoise") denoise_ = v.get<bool>();
+  else if (k == "screenshot") screenshot(v.get<std::string>());  // frame >= 1 (checked): an image exists
+  else if (k == "window_screenshot") pending_window_shots_.push_back(v.get<std::string>());
+  else if (k == "save_camera") save_camera_file(v.get<std::string>());
+  else if (k == "load_camera") load_camera_file(v.get<std::string>());
+  else if (k == "key") press(v.get<std::string>());
+  else if (k == "quit") quit_ = true;
+}
+
+}  // namespace pn::viewer

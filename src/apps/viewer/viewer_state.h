@@ -1,0 +1,210 @@
+// The viewer's state, shared by its parts (internal to src/apps/viewer): what
+// changes the image (ImageSettings), the light being edited, the images on
+// screen (Side), and the Viewer, whose member functions live by concern:
+//   viewer.cpp     opening the window or the headless context, the frame loop;
+//   scheduler.cpp  what the images should be, restarts, samples each frame (split screen, equal time), the
+//                  composed and denoised image;
+//   actions.cpp    keys, the mouse, camera-path actions, screenshots, camera files;
+//   panel.cpp      the Dear ImGui panel and the overlay.
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "apps/viewer/camera_control.h"
+#include "apps/viewer/camera_path.h"
+#include "apps/viewer/gl_display.h"
+#include "apps/viewer/headless_gl.h"
+#include "apps/viewer/progressive.h"
+#include "apps/viewer/viewer.h"
+#include "backends/denoise.h"
+#include "render/backend.h"
+#include "scene/scene.h"
+
+struct GLFWwindow;
+
+namespace pn::viewer {
+
+using Clock = std::chrono::steady_clock;
+inline double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+inline const char* const kRenderHint = "use `penumbra render` to render to a file instead";
+
+
+inline bool same(Vec3 a, Vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+inline bool same(const CameraDesc& a, const CameraDesc& b) {
+  return same(a.eye, b.eye) && same(a.target, b.target) && same(a.up, b.up) && a.fov == b.fov;
+}
+inline bool same(const RestirSettings& a, const RestirSettings& b) {
+  return a.candidates == b.candidates && a.spatial_passes == b.spatial_passes && a.neighbors == b.neighbors &&
+         a.radius == b.radius && a.unbiased == b.unbiased && a.source == b.source && a.temporal == b.temporal &&
+         a.temporal_cap == b.temporal_cap && a.pairwise == b.pairwise && a.visibility_reuse == b.visibility_reuse;
+}
+inline bool same(const IntegratorSettings& a, const IntegratorSettings& b) {
+  return a.strategy == b.strategy && a.mis == b.mis && a.light_selection == b.light_selection &&
+         same(a.restir, b.restir) && a.max_depth == b.max_depth && a.rr_depth == b.rr_depth;
+}
+
+// Everything that changes the rendered image (not exposure: that is display
+// only). Compared every frame; any difference restarts the accumulation.
+struct ImageSettings {
+  CameraDesc camera;
+  // The estimator; its strategy is the image's without split screen. restir's
+  // settings are the scene's unless restir selects the lights (so that the
+  // panel's restir controls restart nothing then).
+  IntegratorSettings integrator;
+  int width = 0, height = 0;
+  bool split = false;  // the divider is not here: it only chooses which image each column shows
+  Strategy left = Strategy::Area, right = Strategy::SolidAngle;
+  bool equal_time = false;
+  std::vector<std::string> scene_overrides;  // the light's edits, on top of the command line's
+
+  bool operator==(const ImageSettings& o) const {
+    return same(camera, o.camera) && same(integrator, o.integrator) && width == o.width && height == o.height &&
+           split == o.split && left == o.left && right == o.right && equal_time == o.equal_time &&
+           scene_overrides == o.scene_overrides;
+  }
+};
+
+// The first light, when it is a sphere: the panel edits it through scene
+// overrides (light.radius, light.center, light.power), so a change rebuilds the
+// scene exactly as `--set` would.
+struct LightEdit {
+  bool sphere = false;
+  float radius = 0.f;
+  Vec3 center, power;
+  static LightEdit of(const Scene& s) {
+    LightEdit e;
+    if (s.lights.empty() || s.lights[0].type != LightType::Sphere) return e;
+    const Light& l = s.lights[0];
+    e.sphere = true;
+    e.radius = l.radius;
+    e.center = l.p;
+    e.power = l.radiance * (kPi * l.area);  // Phi = pi A L, the scene format's `power`
+    return e;
+  }
+};
+
+inline std::string num(float v) { return shortest_number(v).dump(); }
+inline std::string vec(Vec3 v) { return "[" + num(v.x) + "," + num(v.y) + "," + num(v.z) + "]"; }
+
+// One progressive image: the only one, or one side of the split screen. In
+// the split screen each side renders the whole frame with its own strategy
+// (the Backend interface renders whole frames) and shows the columns on its
+// side of the divider: twice the work of one image, but the divider moves
+// without restarting, and equal time compares the strategies' costs on the
+// same pixels.
+struct Side {
+  std::unique_ptr<ProgressiveImage> image;
+  Strategy strategy = Strategy::SolidAngle;
+  double seconds = 0;  // render time since the restart
+  double seconds_per_pixel() const {
+    return image->width() ? seconds / (double(image->width()) * image->height()) : 0;
+  }
+};
+
+class Viewer {
+ public:
+  explicit Viewer(const ViewerOptions& o);
+  ~Viewer();
+  int run();
+
+ private:
+  // Setup.
+  void load(const std::vector<std::string>& extra_overrides);
+  void open_window();
+  void open_glfw_window();
+  void open_headless();
+  void init_gl_and_panel(GlProcLoader loader);
+  void framebuffer_size(int* width, int* height) const;
+  void choose_display();
+  std::unique_ptr<ProgressiveImage> make_image();
+  // Per frame.
+  void handle_input(double dt_seconds);
+  void draw_panel();
+  void draw_overlay();
+  void sync();
+  double render_samples();
+  void apply(const PathAction& a);
+  // Helpers.
+  ImageSettings wanted() const;
+  int divider_column() const;  // first column of the right side
+  void restart(const ImageSettings& s);
+  std::vector<float> composed_mean() const;
+  bool show_denoised();
+  std::string screenshot_stem() const;
+  void screenshot(const std::string& path);
+  void screenshot_button();
+  void window_screenshot(const std::string& path);
+  void set_strategy_key(int index, bool right_side);
+  void press(const std::string& key);  // a key of viewer_keys() (camera_path.h), from the window or a script
+  void save_camera_file(const std::string& path);
+  void load_camera_file(const std::string& path);
+  std::string scene_label() const;
+
+  static void on_key(GLFWwindow* w, int key, int scancode, int action, int mods);
+  static void on_scroll(GLFWwindow* w, double dx, double dy);
+
+  ViewerOptions opt_;
+  std::string scene_name_;
+  std::unique_ptr<Scene> scene_;
+  std::unique_ptr<Backend> backend_;  // refers to *scene_: destroyed first
+  std::vector<Side> sides_;
+
+  // Window and GL (headless: the EGL context and its framebuffer instead of the window).
+  GLFWwindow* window_ = nullptr;
+  std::unique_ptr<HeadlessGl> headless_;
+  std::unique_ptr<OffscreenFramebuffer> offscreen_;
+  bool glfw_ = false, imgui_ = false, imgui_glfw_ = false, imgui_gl3_ = false;  // what to shut down
+  std::unique_ptr<DisplayTexture> display_;
+  std::string gl_info_;
+  std::string backend_note_;
+  DisplayChoice display_path_;  // host upload or CUDA-OpenGL interop (progressive.h)
+
+  // What the user controls.
+  CameraControl camera_;
+  IntegratorSettings integrator_;  // the estimator as the panel, keys and scripts set it; from the scene's
+  int spp_per_frame_ = 1;
+  float exposure_ = 0.f;
+  float scale_ = 1.f;
+  LightEdit light_, light_applied_, light_initial_;
+  bool split_ = false, equal_time_ = false;
+  Strategy left_ = Strategy::Area, right_ = Strategy::SolidAngle;
+  float divider_ = 0.5f;  // fraction of the width
+  bool panel_ = true;
+  bool fly_ = false;
+  // Denoise toggle (N, the panel): the screen shows the composed image denoised
+  // by Intel Open Image Denoise, with guides rendered once per restart.
+  bool denoise_ = false;
+  double denoise_ms_ = 0;  // the last frame's denoiser time (host clock around the filter)
+  std::string denoiser_;   // which denoiser ran, on which device
+  FrameSpec guide_frame_;
+  GuideImages guides_;
+  float fly_speed_ = 1.f;  // scene units per second
+  std::string camera_file_;
+  std::string status_;  // last message in the panel
+
+  // Input state.
+  enum class Drag { None, Orbit, Pan, Look, Divider } drag_ = Drag::None;
+  double last_x_ = 0, last_y_ = 0;
+  double scroll_ = 0;
+  bool screenshot_requested_ = false;
+
+  // Progress and timing.
+  ImageSettings applied_;
+  bool started_ = false;
+  uint64_t frame_ = 0;
+  Clock::time_point restart_time_;
+  std::vector<float> recent_ms_;  // the last frames' times, oldest first, for the graph
+  double last_frame_ms_ = 0, last_render_ms_ = 0;
+  std::vector<double> frame_ms_, render_ms_, display_ms_, present_ms_;  // every frame, for --frames
+  std::vector<PathAction> path_;
+  size_t next_action_ = 0;
+  bool quit_ = false;
+  std::vector<std::string> pending_window_shots_;
+  uint64_t nonfinite_ = 0;  // samples left out by the backend, while the viewer runs
+};
+
+}  // namespace pn::viewer
