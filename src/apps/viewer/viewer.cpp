@@ -9,6 +9,7 @@
 // into the display texture, draw, swap. Rendering is synchronous in the frame:
 // the frame time the panel shows (and --frames prints) is the time "as
 // displayed", render + tone-map + upload + UI + present.
+#include "apps/viewer/viewer.h"
 #include "apps/viewer/viewer_state.h"
 
 #include <algorithm>

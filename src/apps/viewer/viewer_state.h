@@ -18,7 +18,7 @@
 #include "apps/viewer/gl_display.h"
 #include "apps/viewer/headless_gl.h"
 #include "apps/viewer/progressive.h"
-#include "apps/viewer/viewer.h"
+#include "apps/viewer/viewer_options.h"
 #include "backends/denoise.h"
 #include "render/backend.h"
 #include "scene/scene.h"
