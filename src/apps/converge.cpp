@@ -1,7 +1,6 @@
 // One convergence experiment: see converge.h. Moved from `penumbra converge`
 // (apps/cmd_converge.cpp), which now parses its options and calls run_converge().
 #include "apps/converge.h"
-#include "backends/make_backend.h"
 
 #include <algorithm>
 #include <chrono>
@@ -16,10 +15,11 @@
 #include <string>
 #include <vector>
 
+#include "backends/make_backend.h"
+#include "io/host_memory.h"
 #include "io/image.h"
 #include "io/npy.h"
 #include "io/output.h"
-#include "io/host_memory.h"
 #include "render/resources.h"
 #include "render/metrics.h"
 #include "render/technique.h"
@@ -48,6 +48,7 @@ class Part {
   std::unique_ptr<ProgressReport> report_;
   std::chrono::steady_clock::time_point start_;
 };
+
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
