@@ -101,7 +101,7 @@ Check key() {
   return [](const ojson& v, const std::string& where) {
     if (v.is_string() && is_viewer_key(v.get<std::string>())) return;
     std::string names;
-    for (const ViewerKey& k : viewer_keys()) names += (names.empty() ? "" : ", ") + std::string(k.name);
+    for (const std::string& k : viewer_keys()) names += (names.empty() ? "" : ", ") + k;
     fail(where, "must be a key: " + names + " (got " + v.dump() + ")");
   };
 }
@@ -145,26 +145,19 @@ const std::map<std::string, Check>& checks() {
 
 }  // namespace
 
-const std::vector<ViewerKey>& viewer_keys() {
-  static const std::vector<ViewerKey> keys = {
-      {"1", "strategy 1 (registry order); split screen: the left side"},
-      {"2", "strategy 2"}, {"3", "strategy 3"}, {"4", "strategy 4"}, {"5", "strategy 5"},
-      {"6", "strategy 6"}, {"7", "strategy 7"}, {"8", "strategy 8"}, {"9", "strategy 9"},
-      {"shift+1", "split screen: strategy 1 on the right side"}, {"shift+2", "strategy 2, right"},
-      {"shift+3", "strategy 3, right"}, {"shift+4", "strategy 4, right"}, {"shift+5", "strategy 5, right"},
-      {"shift+6", "strategy 6, right"}, {"shift+7", "strategy 7, right"}, {"shift+8", "strategy 8, right"},
-      {"shift+9", "strategy 9, right"},
-      {"R", "reset the camera to the scene's"},
-      {"F", "fly mode on/off"},
-      {"P", "screenshot (PNG and EXR, never overwriting)"},
-      {"N", "denoise on/off"},
-      {"Tab", "show / hide the panel"},
-  };
+const std::vector<std::string>& viewer_keys() {
+  static const std::vector<std::string> keys = [] {
+    std::vector<std::string> k;
+    for (const char* prefix : {"", "shift+"})
+      for (char digit = '1'; digit <= '9'; ++digit) k.push_back(prefix + std::string(1, digit));
+    for (const char* letter : {"R", "F", "P", "N", "Tab"}) k.push_back(letter);
+    return k;
+  }();
   return keys;
 }
 
 bool is_viewer_key(const std::string& name) {
-  return std::any_of(viewer_keys().begin(), viewer_keys().end(), [&](const ViewerKey& k) { return name == k.name; });
+  return std::find(viewer_keys().begin(), viewer_keys().end(), name) != viewer_keys().end();
 }
 
 const std::vector<std::string>& camera_path_keys() {

@@ -141,17 +141,8 @@ void Viewer::open_glfw_window() {
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
   glfwWindowHint(GLFW_SRGB_CAPABLE, GLFW_FALSE);  // the texture already holds sRGB values
-  int w = opt_.width, h = opt_.height;
-  const double aspect = double(scene_->render.width) / scene_->render.height;
-  if (!w && !h) {
-    double f = std::min({1.0, 1280.0 / scene_->render.width, 720.0 / scene_->render.height});
-    w = std::max(16, int(std::lround(scene_->render.width * f)));
-    h = std::max(16, int(std::lround(scene_->render.height * f)));
-  } else if (!h) {
-    h = std::max(16, int(std::lround(w / aspect)));
-  } else if (!w) {
-    w = std::max(16, int(std::lround(h * aspect)));
-  }
+  int w, h;
+  initial_size(/*fit=*/true, &w, &h);
   window_ = glfwCreateWindow(w, h, ("penumbra view: " + scene_label()).c_str(), nullptr, nullptr);
   if (!window_)
     throw std::runtime_error("the display offers no OpenGL 3.3 core context (" + g_glfw_error + "); " + kRenderHint);
@@ -164,9 +155,31 @@ void Viewer::open_glfw_window() {
   init_gl_and_panel(glfwGetProcAddress);
 }
 
+// The window's (or the offscreen framebuffer's) size: --width and --height, one
+// of them with the scene's aspect ratio, or neither: the scene's resolution,
+// fitted into 1280x720 where `fit` (a window on a screen).
+void Viewer::initial_size(bool fit, int* width, int* height) const {
+  const int sw = scene_->render.width, sh = scene_->render.height;
+  const double aspect = double(sw) / sh;
+  int w = opt_.width, h = opt_.height;
+  if (!w && !h && !fit) {
+    w = sw, h = sh;
+  } else if (!w && !h) {
+    const double f = std::min({1.0, 1280.0 / sw, 720.0 / sh});
+    w = std::max(16, int(std::lround(sw * f)));
+    h = std::max(16, int(std::lround(sh * f)));
+  } else if (!h) {
+    h = std::max(16, int(std::lround(w / aspect)));
+  } else if (!w) {
+    w = std::max(16, int(std::lround(h * aspect)));
+  }
+  *width = w;
+  *height = h;
+}
+
 // No window: an EGL context made current without a surface, and a framebuffer
-// object of the window's size to draw into. The size is the scene's unless
-// given (there is no screen to fit).
+// object of initial_size() to draw into (the scene's resolution unless given:
+// there is no screen to fit).
 void Viewer::open_headless() {
   try {
     headless_ = std::make_unique<HeadlessGl>();
@@ -174,11 +187,8 @@ void Viewer::open_headless() {
     throw std::runtime_error(e.what() + std::string("; ") + kRenderHint);
   }
   init_gl_and_panel(HeadlessGl::loader());
-  const double aspect = double(scene_->render.width) / scene_->render.height;
-  int w = opt_.width, h = opt_.height;
-  if (!w && !h) w = scene_->render.width, h = scene_->render.height;
-  else if (!h) h = std::max(16, int(std::lround(w / aspect)));
-  else if (!w) w = std::max(16, int(std::lround(h * aspect)));
+  int w, h;
+  initial_size(/*fit=*/false, &w, &h);
   offscreen_ = std::make_unique<OffscreenFramebuffer>(w, h);
   offscreen_->bind();
   gl_info_ += " (headless: " + headless_->description() + ")";

@@ -117,6 +117,7 @@ class Viewer {
   void open_window();
   void open_glfw_window();
   void open_headless();
+  void initial_size(bool fit, int* width, int* height) const;
   void init_gl_and_panel(GlProcLoader loader);
   void framebuffer_size(int* width, int* height) const;
   void choose_display();
