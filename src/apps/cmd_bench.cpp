@@ -654,10 +654,7 @@ Command add_bench_command(CLI::App& app) {
                   "Light-selection methods, comma-separated (" + light_selection_names() +
                       "; default: each scene's own); restir's settings are the scene's (--set render.restir.*)")
       ->check(light_selection_names_check());
-  sub->add_option("--width", a->width, "Image width (default: 1920 on the GPU, 320 on the CPU)")
-      ->check(CLI::Range(1, 16384));
-  sub->add_option("--height", a->height, "Image height (default: 1080 on the GPU, 180 on the CPU)")
-      ->check(CLI::Range(1, 16384));
+  add_size_options(sub, &a->width, &a->height, "1920x1080 on the GPU, 320x180 on the CPU");
   sub->add_option("--launches", a->launches, "Timed launches (default: 100 on the GPU, 10 on the CPU, 20 with --probe)")
       ->check(CLI::Range(1, 1000000));
   sub->add_option("--warmup", a->warmup, "Warm-up launches (default: 10 on the GPU, 1 on the CPU, 3 with --probe)")

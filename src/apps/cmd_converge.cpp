@@ -60,8 +60,7 @@ Command add_converge_command(CLI::App& app) {
       ->capture_default_str()
       ->check(light_selection_names_check(false));
   sub->add_option("--cache", a->cache, "Folder for cached ground truths (default: $XDG_CACHE_HOME/penumbra or ~/.cache/penumbra)");
-  sub->add_option("--width", a->width, "Image width (default: the scene's)")->check(CLI::Range(1, 16384));
-  sub->add_option("--height", a->height, "Image height (default: the scene's)")->check(CLI::Range(1, 16384));
+  add_size_options(sub, &a->width, &a->height, "the scene's");
   sub->add_option("--threshold", a->threshold, "RMSE for time-to-quality")
       ->capture_default_str()
       ->check(finite_number())

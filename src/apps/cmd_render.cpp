@@ -218,9 +218,7 @@ Command add_render_command(CLI::App& app) {
   add_integrator_options(sub, &a->integrator);
   // Checked as the scene checks its render block (render.spp, ...): a wrong value is a usage error.
   sub->add_option("--spp", a->spp, "Samples per pixel (default: the scene's)")->check(render_setting("spp"));
-  sub->add_option("--width", a->width, "Image width in pixels (default: the scene's)")->check(render_setting("width"));
-  sub->add_option("--height", a->height, "Image height in pixels (default: the scene's)")
-      ->check(render_setting("height"));
+  add_size_options(sub, &a->width, &a->height, "the scene's");
   sub->add_option("--rr-depth", a->rr_depth, "Russian roulette starts at this bounce (default: the scene's)")
       ->check(render_setting("rr_depth"));
   add_backend_options(sub, &a->backend, &a->backend_options, /*gpus=*/true);

@@ -47,6 +47,11 @@ void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::st
 // The cpu backend ignores the GPU's options.
 void add_backend_options(CLI::App* sub, std::string* backend, BackendOptions* options, bool gpus);
 
+// --width and --height: the image's size in pixels, checked as the scene checks render.width and render.height;
+// `defaults` says what an absent one means for the command ("the scene's"). Declared for every command here.
+template <typename Int>
+void add_size_options(CLI::App* sub, Int* width, Int* height, const std::string& defaults);
+
 // --set KEY=VALUE (repeatable): any scene value, validated with the scene like the file's own.
 void add_set_option(CLI::App* sub, std::vector<std::string>* sets);
 
@@ -87,5 +92,13 @@ CLI::Validator light_selection_names_check(bool restir = true);
 
 // An image to write (-o, --variance): .exr or .png.
 CLI::Validator image_path_check();
+
+template <typename Int>
+void add_size_options(CLI::App* sub, Int* width, Int* height, const std::string& defaults) {
+  sub->add_option("--width", *width, "Image width in pixels (default: " + defaults + ")")
+      ->check(render_setting("width"));
+  sub->add_option("--height", *height, "Image height in pixels (default: " + defaults + ")")
+      ->check(render_setting("height"));
+}
 
 }  // namespace pn

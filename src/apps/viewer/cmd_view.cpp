@@ -40,10 +40,10 @@ Command add_view_command(CLI::App& app) {
       ->required();
   add_backend_options(sub, &a->o.backend, &a->o.backend_options, /*gpus=*/false);
   add_set_option(sub, &a->o.sets);
-  sub->add_option("--width", a->o.width, "Window width (default: the scene's, fitted to 1280x720)")
-      ->check(CLI::Range(16, 16384));
-  sub->add_option("--height", a->o.height, "Window height (default: the scene's, fitted to 1280x720)")
-      ->check(CLI::Range(16, 16384));
+  // The window's size (at least 16 pixels, room for the panel); the image is --scale times it.
+  add_size_options(sub, &a->o.width, &a->o.height, "the scene's, fitted to 1280x720; the window, --scale times it");
+  sub->get_option("--width")->check(CLI::Range(16, 16384));
+  sub->get_option("--height")->check(CLI::Range(16, 16384));
   sub->add_option("--scale", a->o.scale,
                   "Resolution scale: image pixels per window pixel (default 1; on the CPU at most ~640x360 pixels)")
       ->check(finite_number())
