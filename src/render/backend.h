@@ -126,6 +126,11 @@ class Backend {
   virtual std::vector<std::pair<std::string, std::string>> device_info() const { return {}; }
   // Costs of building the scene on the device (GPU backends).
   virtual SceneBuildStats scene_build_stats() const { return {}; }
+  // The scene's lights were edited in place (set_sphere_light, scene/scene.h): take the new lights, sphere
+  // surfaces and light selection without rebuilding the meshes' acceleration structures, so that the next
+  // render() is the image a backend made from the edited scene would render. False where this backend cannot
+  // (then make a new one from the edited scene); the default.
+  virtual bool update_lights() { return false; }
 };
 
 struct BackendOptions {

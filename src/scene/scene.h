@@ -190,6 +190,17 @@ LightSelectionView make_light_selection_view(const Scene& scene, const float* po
 // Scene by hand calls it once when done.
 void finalize_scene(Scene& scene);
 
+// The radiance of a sphere light of radius `radius` emitting `power` (watts per RGB channel): Phi = pi A L with
+// A = 4 pi r^2, computed as the scene format's `power` is.
+Vec3 sphere_light_radiance(Vec3 power, float radius);
+
+// Moves, resizes or re-powers sphere light `light` of a finished scene in place: the light, the sphere that is its
+// surface, and what selects lights (the power CDF, the light BVH) become what they would be had the scene been
+// built that way. The same limits as the scene format's (a centre within +-1e7, a radius in (0, 1e7], a power in
+// [0, 1e9] and a finite radiance); a value outside them throws SceneError naming the scene and leaves it
+// unchanged. A backend made from the scene sees the change after Backend::update_lights() (render/backend.h).
+void set_sphere_light(Scene& scene, size_t light, Vec3 center, float radius, Vec3 power);
+
 // Loads a built-in scene by name or a scene file by path, applies "key=value"
 // overrides (see apply_override) and validates everything. Throws SceneError.
 Scene load_scene(const std::string& name_or_path, const std::vector<std::string>& overrides = {});

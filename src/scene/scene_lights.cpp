@@ -1,8 +1,10 @@
 // A parsed scene's lights completed (finalize_scene): a triangle light for
 // every emissive triangle of every instance, the environment's light and its
-// sampling distribution, the power-proportional selection CDF and the light BVH.
+// sampling distribution, the power-proportional selection CDF and the light BVH;
+// and a sphere light edited in place (set_sphere_light).
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "scene/scene.h"
@@ -32,6 +34,8 @@ float average_luminance(const TextureImage& t) {
     for (int x = 0; x < t.width; ++x) sum += luminance(texel_fetch(v, x, y).rgb);
   return float(sum / (double(t.width) * t.height));
 }
+
+void build_light_selection(Scene& s, std::vector<float>& tex_avg);
 
 }  // namespace
 
@@ -101,7 +105,15 @@ void finalize_scene(Scene& s) {
     s.lights.push_back(l);
   }
 
-  // Selection in proportion to power (the luminance of Phi).
+  build_light_selection(s, tex_avg);
+}
+
+namespace {
+
+// Selection in proportion to power (the luminance of Phi), and the light BVH. `tex_avg`: each texture's average
+// luminance where known, else -1 (filled here as needed).
+void build_light_selection(Scene& s, std::vector<float>& tex_avg) {
+  const Environment& env = s.environment;
   const float R = s.bounding_radius();
   s.light_cdf.assign(s.lights.size() + 1, 0.f);
   std::vector<float> power(s.lights.size(), 0.f);
@@ -140,6 +152,35 @@ void finalize_scene(Scene& s) {
       s.infinite_light_probability = float(std::clamp(total > 0 ? infinite / total : 0.5, double(kMinInfiniteProbability),
                                                       1.0 - double(kMinInfiniteProbability)));
   }
+}
+
+}  // namespace
+
+Vec3 sphere_light_radiance(Vec3 power, float radius) {
+  const float area = 4.f * kPi * radius * radius;
+  return power / (kPi * area);
+}
+
+void set_sphere_light(Scene& s, size_t light, Vec3 center, float radius, Vec3 power) {
+  auto fail = [&](const std::string& msg) { throw SceneError(s.source + ": light " + std::to_string(light) + ": " + msg); };
+  if (light >= s.lights.size() || s.lights[light].type != LightType::Sphere) fail("is not a sphere light");
+  // The scene format's limits (scene/json_node.h: coordinates, parse_light: radius and power).
+  const float kMaxCoordinate = 1e7f, kMaxEmission = 1e9f;
+  for (int i = 0; i < 3; ++i) {
+    if (!(std::abs(center[i]) <= kMaxCoordinate)) fail("centre out of range [-1e7, 1e7]");
+    if (!(power[i] >= 0.f && power[i] <= kMaxEmission)) fail("power out of range [0, 1e9]");
+  }
+  if (!(radius > 0.f && radius <= kMaxCoordinate)) fail("radius out of range (0, 1e7]");
+  const Vec3 L = sphere_light_radiance(power, radius);
+  if (!is_finite(L)) fail("radius too small for the given power (radiance overflows)");
+  s.lights[light] = Light::sphere(center, radius, L);
+  for (Sphere& sp : s.spheres)
+    if (sp.light == int32_t(light)) {
+      sp.center = center;
+      sp.radius = radius;
+    }
+  std::vector<float> tex_avg(s.textures.size(), -1.f);
+  build_light_selection(s, tex_avg);
 }
 
 }  // namespace pn

@@ -430,8 +430,7 @@ void parse_light(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
     n.require("radius");
     Vec3 c = n.at("center").vec3();
     float r = n.at("radius").positive(kMaxCoordinate);
-    float area = 4.f * kPi * r * r;
-    Vec3 L = has_l ? n.at("radiance").color(kMaxEmission) : n.at("power").color(kMaxEmission) / (kPi * area);
+    Vec3 L = has_l ? n.at("radiance").color(kMaxEmission) : sphere_light_radiance(n.at("power").color(kMaxEmission), r);
     if (!is_finite(L)) n.at("radius").fail("too small for the given power (radiance overflows)");
     s.lights.push_back(Light::sphere(c, r, L));
     s.spheres.push_back(Sphere{c, r, material, index});

@@ -184,6 +184,28 @@ def frames_path_and_split(view, penumbra, env, how):
     print(f"ok: {how}: camera move (mean difference {d1:.1f}/255) and key 1's strategy switch ({d2:.1f}/255), "
           "each identical to `penumbra render`; the window's screenshot shows the panel")
 
+    # 2b. The light panel's radius drag: the scene and the backend change in place (nothing is loaded again, no
+    # backend made again), and the image is `penumbra render` of the camera file the viewer saves then, which
+    # holds the edited light.
+    path = [
+        {"frame": 2, "light_radius": 0.5},
+        {"frame": 3, "light_radius": 0.6, "save_camera": "lit.json"},
+        {"frame": 7, "screenshot": "lit.png"},
+        {"frame": 7, "quit": True},
+    ]
+    with open("light_path.json", "w") as f:
+        json.dump(path, f)
+    p = run(view + ["cornell-sphere", "--camera-path", "light_path.json"], env=env)
+    if p.stderr.count("(cpu backend updated in place)") != 2:
+        fail("two radius steps should each update the cpu backend in place:\n" + p.stderr)
+    if "the scene was loaded 1 time, a backend made 1 time" not in p.stderr:
+        fail("a light edit loaded the scene or made a backend again:\n" + p.stderr)
+    run(render + ["lit.json", "-o", "lit_render.png"])
+    same_bytes("lit.png", "lit_render.png", "after the radius drag the viewer does not show the saved scene's light")
+    check_differ("start.png", "lit.png", "radius drag")
+    step = [l for l in p.stderr.splitlines() if "light changed in" in l][-1]
+    print(f"ok: {how}: radius drag in place ({step.split('view: ')[-1]}), identical to `penumbra render`")
+
     # 3. Split screen at equal spp and at equal time; EXR screenshot.
     p = run(view + ["cornell-sphere", "--split", "area,solid-angle", "--frames", "4", "--screenshot", "split.png"],
             env=env)

@@ -77,9 +77,8 @@ void Viewer::window_screenshot(const std::string& path) {
 
 void Viewer::save_camera_file(const std::string& path) {
   // A new file is the whole scene as the viewer shows it: the command line's
-  // and the panel's overrides, the strategy and depth, and this camera.
+  // overrides, the panel's light, the strategy and depth, and this camera.
   std::vector<std::string> overrides = opt_.sets;
-  overrides.insert(overrides.end(), applied_.scene_overrides.begin(), applied_.scene_overrides.end());
   const IntegratorSettings& in = integrator_;
   const RestirSettings& r = in.restir;
   overrides.push_back("render.strategy=\"" + std::string(strategy_name(in.strategy)) + "\"");
@@ -95,6 +94,16 @@ void Viewer::save_camera_file(const std::string& path) {
   overrides.push_back("render.max_depth=" + std::to_string(in.max_depth));
   std::string source;
   nlohmann::json doc = load_scene_json(opt_.scene, overrides, &source);
+  if (!same(light_, light_initial_) && doc.contains("lights") && doc["lights"].is_array() &&
+      !doc["lights"].empty() && doc["lights"][0].is_object()) {
+    // The edited light by its power, as the viewer edits it (a file may have given its radiance).
+    nlohmann::json& l = doc["lights"][0];
+    const LightEdit& e = light_;
+    l["center"] = {shortest_number(e.center.x), shortest_number(e.center.y), shortest_number(e.center.z)};
+    l["radius"] = shortest_number(e.radius);
+    l.erase("radiance");
+    l["power"] = {shortest_number(e.power.x), shortest_number(e.power.y), shortest_number(e.power.z)};
+  }
   save_camera(path, camera_.desc(), doc);
   status_ = "saved the camera to " + path;
   std::fprintf(stderr, "%s\n", status_.c_str());

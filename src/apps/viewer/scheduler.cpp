@@ -11,6 +11,7 @@
 
 #include "apps/options.h"
 #include "apps/viewer/viewer_state.h"
+#include "backends/make_backend.h"
 #include "io/image.h"
 
 namespace pn::viewer {
@@ -32,11 +33,7 @@ ImageSettings Viewer::wanted() const {
     s.right = right_;
     s.equal_time = equal_time_;
   }
-  if (light_.sphere) {
-    if (light_.radius != light_initial_.radius) s.scene_overrides.push_back("light.radius=" + num(light_.radius));
-    if (!same(light_.center, light_initial_.center)) s.scene_overrides.push_back("light.center=" + vec(light_.center));
-    if (!same(light_.power, light_initial_.power)) s.scene_overrides.push_back("light.power=" + vec(light_.power));
-  }
+  s.light = light_;
   return s;
 }
 
@@ -48,23 +45,36 @@ int Viewer::divider_column() const {
 void Viewer::sync() {
   ImageSettings want = wanted();
   if (started_ && want == applied_) return;
-  if (want.scene_overrides != applied_.scene_overrides) {
+  if (!same(want.light, light_applied_)) {
     try {
-      // A light change rebuilds the scene and the backend (for OptiX: pipeline,
-      // acceleration structures): see docs/viewer.md, "Light edits".
-      const auto t0 = Clock::now();
-      load(want.scene_overrides);
-      std::fprintf(stderr, "view: light changed: scene and %s backend rebuilt in %.0f ms\n", backend_->name().c_str(),
-                   ms_since(t0));
-      light_applied_ = light_;
-    } catch (const std::exception& e) {  // e.g. a light moved into a wall's plane: keep the last good scene
+      apply_light(want.light);
+    } catch (const std::exception& e) {  // a value outside the scene format's limits: keep the last good light
       status_ = e.what();
+      std::fprintf(stderr, "view: %s\n", e.what());
       light_ = light_applied_;
       want = wanted();
-      if (want.scene_overrides != applied_.scene_overrides) load(want.scene_overrides);
     }
   }
   restart(want);
+}
+
+// A light edit, into the scene in place and then the backend: Backend::update_lights where it can (the CPU:
+// the meshes' acceleration structures are kept), else a new backend from the edited scene. Nothing is loaded.
+void Viewer::apply_light(const LightEdit& e) {
+  const auto t0 = Clock::now();
+  set_sphere_light(*scene_, 0, e.center, e.radius, e.power);  // throws, the scene unchanged, on a bad value
+  const bool in_place = backend_->update_lights();
+  if (!in_place) {
+    sides_.clear();
+    backend_.reset();
+    std::string note;
+    backend_ = make_backend(opt_.backend, *scene_, opt_.backend_options, &note);
+    ++backend_builds_;
+  }
+  light_applied_ = e;
+  std::fprintf(stderr, "view: light changed in %.2f ms (%s)\n", ms_since(t0),
+               in_place ? (backend_->name() + " backend updated in place").c_str()
+                        : (backend_->name() + " backend made again from the edited scene").c_str());
 }
 
 void Viewer::restart(const ImageSettings& s) {

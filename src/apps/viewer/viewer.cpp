@@ -73,7 +73,7 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
     throw std::runtime_error("--headless needs --frames N or a --camera-path with a \"quit\" action: nothing else "
                              "ends a viewer without a window");
   scene_name_ = find_builtin(opt_.scene) ? opt_.scene : std::filesystem::path(opt_.scene).stem().string();
-  load({});
+  load();
   // --display interop that cannot be (the CPU backend, a build without CUDA): one line, before any window.
   if (opt_.display == "interop" && (backend_->name() != "optix" || !kInteropBuilt))
     choose_display_path(opt_.display, backend_->name(), kInteropBuilt, [] { return std::string(); });  // throws
@@ -95,21 +95,12 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
   }
 }
 
-// (Re)loads the scene with the command line's overrides plus `extra`, and makes
-// a backend for it. On failure the previous scene and backend stay.
-void Viewer::load(const std::vector<std::string>& extra) {
-  std::vector<std::string> overrides = opt_.sets;
-  overrides.insert(overrides.end(), extra.begin(), extra.end());
-  auto scene = std::make_unique<Scene>(load_scene(opt_.scene, overrides));
-  const BackendOptions& bo = opt_.backend_options;
-  std::string note;
-  std::unique_ptr<Backend> backend = make_backend(opt_.backend, *scene, bo, &note);
-  if (!backend_) backend_note_ = note;  // printed once the window is open: a failure to open stays one line
-  sides_.clear();
-  backend_.reset();
-  scene_ = std::move(scene);
-  backend_ = std::move(backend);
-  started_ = false;  // the images refer to the old backend: make new ones
+// Loads the scene with the command line's overrides and makes a backend for it.
+void Viewer::load() {
+  scene_ = std::make_unique<Scene>(load_scene(opt_.scene, opt_.sets));
+  ++scene_loads_;
+  backend_ = make_backend(opt_.backend, *scene_, opt_.backend_options, &backend_note_);
+  ++backend_builds_;
 }
 
 void Viewer::open_window() {
@@ -387,6 +378,8 @@ int Viewer::run() {
                  display_path_name(display_path_.path), backend_->name().c_str(),
                  offscreen_ ? ", headless" : "");
   }
+  std::fprintf(stderr, "view: the scene was loaded %d time%s, a backend made %d time%s\n", scene_loads_,
+               scene_loads_ == 1 ? "" : "s", backend_builds_, backend_builds_ == 1 ? "" : "s");
   if (nonfinite_ > 0) {
     std::fprintf(stderr,
                  "warning: %s: %llu samples were NaN or infinite and left out while the viewer ran (exit status %d)\n",

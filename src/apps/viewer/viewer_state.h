@@ -47,30 +47,12 @@ inline bool same(const IntegratorSettings& a, const IntegratorSettings& b) {
          same(a.restir, b.restir) && a.max_depth == b.max_depth && a.rr_depth == b.rr_depth;
 }
 
-// Everything that changes the rendered image (not exposure: that is display
-// only). Compared every frame; any difference restarts the accumulation.
-struct ImageSettings {
-  CameraDesc camera;
-  // The estimator; its strategy is the image's without split screen. restir's
-  // settings are the scene's unless restir selects the lights (so that the
-  // panel's restir controls restart nothing then).
-  IntegratorSettings integrator;
-  int width = 0, height = 0;
-  bool split = false;  // the divider is not here: it only chooses which image each column shows
-  Strategy left = Strategy::Area, right = Strategy::SolidAngle;
-  bool equal_time = false;
-  std::vector<std::string> scene_overrides;  // the light's edits, on top of the command line's
-
-  bool operator==(const ImageSettings& o) const {
-    return same(camera, o.camera) && same(integrator, o.integrator) && width == o.width && height == o.height &&
-           split == o.split && left == o.left && right == o.right && equal_time == o.equal_time &&
-           scene_overrides == o.scene_overrides;
-  }
-};
-
-// The first light, when it is a sphere: the panel edits it through scene
-// overrides (light.radius, light.center, light.power), so a change rebuilds the
-// scene exactly as `--set` would.
+// The first light, when it is a sphere: the panel, keys and scripts edit its
+// centre, radius and power (a radius change keeps the power, so the scene's
+// brightness stays). The scene and the backend take an edit in place
+// (set_sphere_light, Backend::update_lights): nothing is loaded again, and the
+// meshes' acceleration structures are kept; a backend that cannot update is
+// made again from the edited scene.
 struct LightEdit {
   bool sphere = false;
   float radius = 0.f;
@@ -86,9 +68,31 @@ struct LightEdit {
     return e;
   }
 };
+inline bool same(const LightEdit& a, const LightEdit& b) {
+  return a.sphere == b.sphere && a.radius == b.radius && same(a.center, b.center) && same(a.power, b.power);
+}
 
-inline std::string num(float v) { return shortest_number(v).dump(); }
-inline std::string vec(Vec3 v) { return "[" + num(v.x) + "," + num(v.y) + "," + num(v.z) + "]"; }
+// Everything that changes the rendered image (not exposure: that is display
+// only). Compared every frame; any difference restarts the accumulation.
+struct ImageSettings {
+  CameraDesc camera;
+  // The estimator; its strategy is the image's without split screen. restir's
+  // settings are the scene's unless restir selects the lights (so that the
+  // panel's restir controls restart nothing then).
+  IntegratorSettings integrator;
+  int width = 0, height = 0;
+  bool split = false;  // the divider is not here: it only chooses which image each column shows
+  Strategy left = Strategy::Area, right = Strategy::SolidAngle;
+  bool equal_time = false;
+  LightEdit light;  // the first light's centre, radius and power, where it is a sphere
+
+  bool operator==(const ImageSettings& o) const {
+    return same(camera, o.camera) && same(integrator, o.integrator) && width == o.width && height == o.height &&
+           split == o.split && left == o.left && right == o.right && equal_time == o.equal_time &&
+           same(light, o.light);
+  }
+};
+
 
 // One progressive image: the only one, or one side of the split screen. In
 // the split screen each side renders the whole frame with its own strategy
@@ -113,7 +117,8 @@ class Viewer {
 
  private:
   // Setup.
-  void load(const std::vector<std::string>& extra_overrides);
+  void load();
+  void apply_light(const LightEdit& e);
   void open_window();
   void open_glfw_window();
   void open_headless();
@@ -206,6 +211,7 @@ class Viewer {
   bool quit_ = false;
   std::vector<std::string> pending_window_shots_;
   uint64_t nonfinite_ = 0;  // samples left out by the backend, while the viewer runs
+  int scene_loads_ = 0, backend_builds_ = 0;  // for the summary: light edits load nothing
 };
 
 }  // namespace pn::viewer

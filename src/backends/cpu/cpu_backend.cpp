@@ -122,7 +122,7 @@ class CpuBackend final : public Backend {
  public:
   // The scene must outlive the backend: its arrays are traced in place.
   CpuBackend(const Scene& scene, int threads, CpuSchedule schedule, uint32_t wavefront_paths = 0)
-      : host_(make_host_view(scene)), view_(host_->view), schedule_(schedule),
+      : scene_(scene), host_(make_host_view(scene)), view_(host_->view), schedule_(schedule),
         wavefront_paths_(wavefront_paths > 0 ? wavefront_paths : (1u << 20)) {
     filter_.view = &view_;
     filter_.instance_of_geom = &instance_of_geom_;
@@ -198,6 +198,19 @@ class CpuBackend final : public Backend {
     rtcReleaseScene(rtc_);
     for (RTCScene ms : mesh_scenes_) rtcReleaseScene(ms);
     rtcReleaseDevice(device_);
+  }
+
+  // The lights and the sphere records are read from the scene's arrays through a new host view (the light BVH's
+  // nodes were reallocated); the sphere set's bounds are recomputed and the top level rebuilt over the meshes'
+  // BVHs as they are (rtcCommitScene), which are not touched.
+  bool update_lights() override {
+    host_ = make_host_view(scene_);
+    view_ = host_->view;
+    if (sphere_geom_ != RTC_INVALID_GEOMETRY_ID) {
+      rtcCommitGeometry(rtcGetGeometry(rtc_, sphere_geom_));
+      rtcCommitScene(rtc_);
+    }
+    return rtcGetDeviceError(device_) == RTC_ERROR_NONE;
   }
 
   std::string name() const override { return "cpu"; }
@@ -699,6 +712,7 @@ class CpuBackend final : public Backend {
     film.add_samples(count);
   }
 
+  const Scene& scene_;
   std::unique_ptr<HostSceneView> host_;
   SceneView view_;
   CpuSchedule schedule_ = CpuSchedule::DepthFirst;
