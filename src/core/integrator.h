@@ -61,6 +61,11 @@ struct IntegratorSettings {
   int max_depth = 8;  // maximum number of scattering vertices on a path
   int rr_depth = 5;   // Russian roulette from this vertex on
 };
+inline bool operator==(const IntegratorSettings& a, const IntegratorSettings& b) {
+  return a.strategy == b.strategy && a.mis == b.mis && a.light_selection == b.light_selection &&
+         a.restir == b.restir && a.max_depth == b.max_depth && a.rr_depth == b.rr_depth;
+}
+inline bool operator!=(const IntegratorSettings& a, const IntegratorSettings& b) { return !(a == b); }
 
 // The selection method light samples are drawn with: restir's source for
 // restir (it resamples what its source draws), else the method itself. Every

@@ -97,6 +97,12 @@ struct RestirSettings {
   uint32_t pairwise = 0;      // 1 (unbiased only): pairwise MIS in the reuse, 2k shadow rays a pass, not k^2 + k
   uint32_t visibility_reuse = 1;  // 0: unshadowed targets in the reuse, one shadow ray when shading
 };
+inline bool operator==(const RestirSettings& a, const RestirSettings& b) {
+  return a.candidates == b.candidates && a.spatial_passes == b.spatial_passes && a.neighbors == b.neighbors &&
+         a.radius == b.radius && a.unbiased == b.unbiased && a.source == b.source && a.temporal == b.temporal &&
+         a.temporal_cap == b.temporal_cap && a.pairwise == b.pairwise && a.visibility_reuse == b.visibility_reuse;
+}
+inline bool operator!=(const RestirSettings& a, const RestirSettings& b) { return !(a == b); }
 constexpr uint32_t kMaxRestirCandidates = 4096;
 constexpr uint32_t kMaxRestirPasses = 16;
 constexpr uint32_t kMaxRestirNeighbors = 16;

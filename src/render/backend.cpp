@@ -40,6 +40,13 @@ FrameSpec frame_spec(const Scene& scene) {
   return f;
 }
 
+bool same_frame(const FrameSpec& a, const FrameSpec& b) {
+  auto same = [](Vec3 x, Vec3 y) { return x.x == y.x && x.y == y.y && x.z == y.z; };
+  const Camera &c = a.camera, &d = b.camera;
+  return same(c.eye, d.eye) && same(c.forward, d.forward) && same(c.right, d.right) && same(c.up, d.up) &&
+         c.width == d.width && c.height == d.height && a.integrator == b.integrator && a.seed == b.seed;
+}
+
 namespace {
 
 // --gpus as "all" (an empty list) or the numbers it holds: a count, or a list.

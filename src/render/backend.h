@@ -27,6 +27,8 @@ struct FrameSpec {
 };
 
 FrameSpec frame_spec(const Scene& scene);
+// Whether two frames are the same image: camera, integrator and seed.
+bool same_frame(const FrameSpec& a, const FrameSpec& b);
 
 // Called from the rendering thread(s) with (samples done, samples total), where a
 // sample is one path through one pixel. Calls are serialised by the backend. An

@@ -535,5 +535,39 @@ TEST(Render, AlphaTextureCutsTheSurface) {
   EXPECT_GT(same, ma.size() * 95 / 100) << "the paths differ: the holes are not where the texture says";
 }
 
+// Temporal reuse's history carries over from one render() to the next that continues it (the viewer's frames of a
+// still camera): samples split over calls are those of one call. A call that does not continue the last one's frame
+// where it stopped starts without history; the two latest frames' histories are kept.
+TEST(Render, RestirTemporalHistoryCarriesOverToTheCallThatContinuesIt) {
+  const Scene s = load_scene("many-spheres", {"render.width=32", "render.height=18", "render.light_selection=restir",
+                                              "render.restir.temporal=true", "render.seed=3"});
+  std::string note;
+  auto backend = make_backend("cpu", s, BackendOptions{2}, &note);
+  const FrameSpec frame = frame_spec(s);
+  FrameSpec other = frame;
+  other.seed += 1;
+  const uint32_t n = 6;
+  Film whole(32, 18), split(32, 18), again(32, 18), interrupted(32, 18), scratch(32, 18);
+  backend->render(frame, whole, 0, n);
+  for (uint32_t i = 0; i < n; ++i) backend->render(frame, split, i, 1);
+  backend->render(frame, again, 0, n);
+  Film alternating(32, 18), other_whole(32, 18), other_alternating(32, 18);
+  for (uint32_t i = 0; i < n; ++i) {  // two frames in turn (the viewer's split screen): each keeps its history
+    backend->render(frame, alternating, i, 1);
+    backend->render(other, other_alternating, i, 1);
+  }
+  backend->render(other, other_whole, 0, n);
+  for (uint32_t i = 0; i < n; ++i) {
+    backend->render(frame, interrupted, i, 1);
+    backend->render(other, scratch, 0, 1);  // the other frame from its start, and a third, in between: the history
+    backend->render(other, scratch, 3, 1);  // of `frame` is then older than the two kept
+  }
+  EXPECT_EQ(split.mean(), whole.mean());
+  EXPECT_EQ(alternating.mean(), whole.mean());
+  EXPECT_EQ(other_alternating.mean(), other_whole.mean());
+  EXPECT_EQ(again.mean(), whole.mean());
+  EXPECT_NE(interrupted.mean(), whole.mean()) << "the history changes no image: the test above shows nothing";
+}
+
 }  // namespace
 }  // namespace pn

@@ -37,15 +37,6 @@ inline bool same(Vec3 a, Vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z
 inline bool same(const CameraDesc& a, const CameraDesc& b) {
   return same(a.eye, b.eye) && same(a.target, b.target) && same(a.up, b.up) && a.fov == b.fov;
 }
-inline bool same(const RestirSettings& a, const RestirSettings& b) {
-  return a.candidates == b.candidates && a.spatial_passes == b.spatial_passes && a.neighbors == b.neighbors &&
-         a.radius == b.radius && a.unbiased == b.unbiased && a.source == b.source && a.temporal == b.temporal &&
-         a.temporal_cap == b.temporal_cap && a.pairwise == b.pairwise && a.visibility_reuse == b.visibility_reuse;
-}
-inline bool same(const IntegratorSettings& a, const IntegratorSettings& b) {
-  return a.strategy == b.strategy && a.mis == b.mis && a.light_selection == b.light_selection &&
-         same(a.restir, b.restir) && a.max_depth == b.max_depth && a.rr_depth == b.rr_depth;
-}
 
 // The first light, when it is a sphere: the panel, keys and scripts edit its
 // centre, radius and power (a radius change keeps the power, so the scene's
@@ -87,7 +78,7 @@ struct ImageSettings {
   LightEdit light;  // the first light's centre, radius and power, where it is a sphere
 
   bool operator==(const ImageSettings& o) const {
-    return same(camera, o.camera) && same(integrator, o.integrator) && width == o.width && height == o.height &&
+    return same(camera, o.camera) && integrator == o.integrator && width == o.width && height == o.height &&
            split == o.split && left == o.left && right == o.right && equal_time == o.equal_time &&
            same(light, o.light);
   }

@@ -204,6 +204,7 @@ class CpuBackend final : public Backend {
   // nodes were reallocated); the sphere set's bounds are recomputed and the top level rebuilt over the meshes'
   // BVHs as they are (rtcCommitScene), which are not touched.
   bool update_lights() override {
+    restir_history_.clear();  // of the old lights
     host_ = make_host_view(scene_);
     view_ = host_->view;
     if (sphere_geom_ != RTC_INVALID_GEOMETRY_ID) {
@@ -577,10 +578,12 @@ class CpuBackend final : public Backend {
 
   // restir with spatial or temporal reuse (core/restir.h): per camera sample,
   // the primary pass over every pixel, temporal reuse with the previous
-  // sample's final reservoirs (its history; none for the call's first), the
-  // spatial passes (reading one reservoir buffer, writing the other), then
-  // shading and accumulation, which keep the history; all as phases of one
-  // pool of threads.
+  // sample's final reservoirs (its history), the spatial passes (reading one
+  // reservoir buffer, writing the other), then shading and accumulation, which
+  // keep the history; all as phases of one pool of threads. The history
+  // outlives the call (restir_history_): a call that continues a recent call's
+  // frame where it stopped (the viewer's next frame) reuses it, so that samples
+  // split over calls are those of one call; any other starts without one.
   void render_restir(const FrameSpec& frame, Film& film, uint32_t first_sample, uint32_t count,
                      const ProgressFn& progress) {
     const int W = frame.camera.width, H = frame.camera.height;
@@ -591,8 +594,21 @@ class CpuBackend final : public Backend {
     std::vector<RestirPixel> gbuffer(pixels);
     std::vector<Vec3> path_L(pixels);  // each path's radiance without its first vertex's direct light
     std::vector<Reservoir> reservoirs[2] = {std::vector<Reservoir>(pixels), std::vector<Reservoir>(pixels)};
-    std::vector<RestirPixel> history_pixels(temporal ? pixels : 0);  // valid = 0: no history yet
-    std::vector<Reservoir> history(temporal ? pixels : 0);
+    std::vector<RestirPixel> history_pixels;  // valid = 0: no history yet
+    std::vector<Reservoir> history;
+    if (temporal) {
+      auto it = std::find_if(restir_history_.begin(), restir_history_.end(), [&](const RestirHistory& h) {
+        return h.next_sample == first_sample && h.pixels.size() == pixels && same_frame(h.frame, frame);
+      });
+      if (it != restir_history_.end()) {
+        history_pixels = std::move(it->pixels);
+        history = std::move(it->reservoirs);
+        restir_history_.erase(it);
+      } else {
+        history_pixels.assign(pixels, RestirPixel{});
+        history.assign(pixels, Reservoir{});
+      }
+    }
     const uint64_t total = uint64_t(pixels) * count;
     std::atomic<uint64_t> done{0};
     Tracer tracer{this};
@@ -710,7 +726,24 @@ class CpuBackend final : public Backend {
       }
     }
     film.add_samples(count);
+    if (temporal) {
+      restir_history_.insert(restir_history_.begin(),
+                             RestirHistory{frame, first_sample + count, std::move(history_pixels), std::move(history)});
+      if (restir_history_.size() > kRestirHistories) restir_history_.pop_back();
+    }
   }
+
+  // Temporal reuse's history after a restir render with it: the frame, the sample that comes next, and each
+  // pixel's shading point and final reservoir. The latest first, at most two frames' (the viewer's split screen
+  // renders two frames in turn).
+  struct RestirHistory {
+    FrameSpec frame;
+    uint32_t next_sample = 0;
+    std::vector<RestirPixel> pixels;
+    std::vector<Reservoir> reservoirs;
+  };
+  static constexpr size_t kRestirHistories = 2;
+  std::vector<RestirHistory> restir_history_;
 
   const Scene& scene_;
   std::unique_ptr<HostSceneView> host_;
