@@ -1,15 +1,19 @@
 // The viewer's windowless parts (src/apps/viewer): camera control, camera files,
-// camera paths, progressive images and their tone-mapping. The
-// window itself is tested under Xvfb by viewer_smoke.py.
+// camera paths, the action table and its keys, progressive images and their
+// tone-mapping. The window itself is tested under Xvfb by viewer_smoke.py.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
+#include <set>
 
+#include "apps/viewer/actions_table.h"
 #include "apps/viewer/camera_control.h"
 #include "apps/viewer/camera_path.h"
 #include "apps/viewer/progressive.h"
@@ -215,6 +219,82 @@ TEST(CameraPath, BadInputIsOneLineNamingTheEntry) {
   EXPECT_NE(error("[{\"frame\": 1, \"restir_bvh_candidates\": \"yes\"}]").find("p.json: [0].restir_bvh_candidates"),
             std::string::npos);
   EXPECT_NE(error("[{\"frame\": 1, \"denoise\": 2}]").find("p.json: [0].denoise"), std::string::npos);
+}
+
+// The action table (actions_table.h) is the camera path's list of actions, plus
+// the one the window alone has (the panel's screenshot button and P).
+TEST(ViewerActions, CheckedActionsAreTheCameraPathsAndNamesAreUnique) {
+  std::set<std::string> names;
+  std::vector<std::string> checked, unchecked;
+  for_each_action([&](const char* name, const ActionCheck& check, const auto&) {
+    EXPECT_TRUE(names.insert(name).second) << name << " is in the table twice";
+    (check ? checked : unchecked).push_back(name);
+  });
+  std::sort(checked.begin(), checked.end());
+  EXPECT_EQ(checked, camera_path_keys());
+  EXPECT_EQ(unchecked, std::vector<std::string>{"screenshot_button"});
+}
+
+// What the key bindings read of the viewer (members of viewer_state.h's Viewer).
+struct KeyState {
+  bool split_ = false, fly_ = false, denoise_ = false, panel_ = true;
+};
+
+KeyAction bound(const std::string& key, const KeyState& state) {
+  KeyAction a;
+  bool found = false;
+  for_each_key([&](const std::string& name, const auto& bind) {
+    if (name == key) a = bind(state), found = true;
+  });
+  EXPECT_TRUE(found) << key;
+  return a;
+}
+
+TEST(ViewerActions, EveryKeyIsAnActionWithAValueItsCheckAccepts) {
+  EXPECT_EQ(viewer_keys(), (std::vector<std::string>{"1", "2", "3", "4", "5", "6", "7", "8", "9", "shift+1", "shift+2",
+                                                      "shift+3", "shift+4", "shift+5", "shift+6", "shift+7", "shift+8",
+                                                      "shift+9", "R", "F", "P", "N", "Tab"}));
+  std::map<std::string, ActionCheck> checks;
+  std::set<std::string> actions;
+  for_each_action([&](const char* name, const ActionCheck& check, const auto&) {
+    actions.insert(name);
+    if (check) checks[name] = check;
+  });
+  for (const bool split : {false, true}) {
+    KeyState state;
+    state.split_ = split;
+    for (const std::string& key : viewer_keys()) {
+      const KeyAction a = bound(key, state);
+      const size_t digit = key.find_first_of("123456789");
+      if (digit != std::string::npos && key[digit] - '1' >= kNumStrategies) {  // no strategy of that number
+        EXPECT_EQ(a.action, "") << key;
+        continue;
+      }
+      ASSERT_TRUE(actions.count(a.action)) << key << " -> '" << a.action << "'";
+      if (checks.count(a.action)) {
+        EXPECT_NO_THROW(checks[a.action](nlohmann::ordered_json::parse(a.value.dump()), "key " + key)) << key;
+      }
+    }
+  }
+  // 1..9 set the strategy, or in split screen the left side's (with shift the right side's).
+  KeyState one, split;
+  split.split_ = true;
+  EXPECT_EQ(bound("1", one).action, "strategy");
+  EXPECT_EQ(bound("1", one).value, strategy_name(Strategy(0)));
+  EXPECT_EQ(bound("shift+2", one).action, "strategy");
+  EXPECT_EQ(bound("shift+2", one).value, strategy_name(Strategy(1)));
+  EXPECT_EQ(bound("1", split).action, "split_left");
+  EXPECT_EQ(bound("shift+2", split).action, "split_right");
+  EXPECT_EQ(bound("shift+2", split).value, strategy_name(Strategy(1)));
+  // The toggles set the opposite of now.
+  EXPECT_EQ(bound("N", one).action, "denoise");
+  EXPECT_EQ(bound("N", one).value, true);
+  one.denoise_ = true;
+  EXPECT_EQ(bound("N", one).value, false);
+  EXPECT_EQ(bound("F", one).value, true);
+  EXPECT_EQ(bound("Tab", one).value, false);
+  EXPECT_EQ(bound("R", one).action, "reset");
+  EXPECT_EQ(bound("P", one).action, "screenshot_button");
 }
 
 TEST(Display, FastSrgbIsExactlyThePngEncoding) {

@@ -1,10 +1,12 @@
-// What changes the viewer besides the panel (viewer_state.h): keys by name
-// (viewer_keys, camera_path.h), the mouse, camera-path actions, screenshots
-// and camera files.
+// What changes the viewer besides the panel (viewer_state.h): its actions by
+// name (the table in actions_table.h) for camera paths and keys; keys by name
+// (viewer_keys, camera_path.h); the mouse; screenshots and camera files.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -13,6 +15,7 @@
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 
+#include "apps/viewer/actions_table.h"
 #include "apps/viewer/viewer_state.h"
 #include "io/image.h"
 #include "io/output.h"
@@ -114,26 +117,22 @@ void Viewer::load_camera_file(const std::string& path) {
   status_ = "loaded the camera of " + path;
 }
 
-void Viewer::set_strategy_key(int index, bool right_side) {
-  if (index < 0 || index >= kNumStrategies) return;
-  Strategy s = Strategy(index);
-  if (!split_) integrator_.strategy = s;
-  else (right_side ? right_ : left_) = s;
-}
-
+// A key by its name (viewer_keys): the action and value it is bound to now (for_each_key, actions_table.h).
 void Viewer::press(const std::string& key) {
-  const bool shift = key.rfind("shift+", 0) == 0;
-  const std::string k = shift ? key.substr(6) : key;
-  if (k.size() == 1 && k[0] >= '1' && k[0] <= '9') set_strategy_key(k[0] - '1', shift);
-  else if (k == "R") camera_.reset();
-  else if (k == "F") fly_ = !fly_;
-  else if (k == "P") screenshot_requested_ = true;
-  else if (k == "N") denoise_ = !denoise_;
-  else if (k == "Tab") panel_ = !panel_;
+  static const std::map<std::string, std::function<KeyAction(const Viewer&)>> bindings = [] {
+    std::map<std::string, std::function<KeyAction(const Viewer&)>> t;
+    for_each_key([&](const std::string& name, auto bind) { t.emplace(name, bind); });
+    return t;
+  }();
+  auto it = bindings.find(key);
+  if (it == bindings.end()) return;
+  const KeyAction a = it->second(*this);
+  if (!a.action.empty()) act(a.action, a.value, "key " + key);
 }
 
 // The window's keys, by their names in viewer_keys(), unless the panel is typing or has the keyboard (Tab always
-// reaches the viewer but while typing).
+// reaches the viewer but while typing). Shift names a key of its own where viewer_keys() has one ("shift+1"), else
+// it is the key without shift.
 void Viewer::on_key(GLFWwindow* w, int key, int, int action, int mods) {
   auto* v = static_cast<Viewer*>(glfwGetWindowUserPointer(w));
   if (action != GLFW_PRESS || !v->imgui_) return;
@@ -141,15 +140,11 @@ void Viewer::on_key(GLFWwindow* w, int key, int, int action, int mods) {
   if (io.WantTextInput) return;  // typing a file name
   if (key == GLFW_KEY_TAB) return v->press("Tab");
   if (io.WantCaptureKeyboard) return;
-  std::string name;
-  if (key >= GLFW_KEY_1 && key <= GLFW_KEY_9) name = std::string(1, char('1' + (key - GLFW_KEY_1)));
-  else if (key == GLFW_KEY_R) name = "R";
-  else if (key == GLFW_KEY_F) name = "F";
-  else if (key == GLFW_KEY_P) name = "P";
-  else if (key == GLFW_KEY_N) name = "N";
-  else return;
-  if (mods & GLFW_MOD_SHIFT && name.size() == 1 && name[0] >= '1' && name[0] <= '9') name = "shift+" + name;
-  v->press(name);
+  // GLFW's codes of the digit and letter keys are their characters ('1', 'R').
+  if (!(key >= GLFW_KEY_0 && key <= GLFW_KEY_9) && !(key >= GLFW_KEY_A && key <= GLFW_KEY_Z)) return;
+  const std::string name(1, char(key));
+  if (mods & GLFW_MOD_SHIFT && is_viewer_key("shift+" + name)) v->press("shift+" + name);
+  else if (is_viewer_key(name)) v->press(name);
 }
 
 void Viewer::on_scroll(GLFWwindow* w, double, double dy) {
@@ -213,54 +208,18 @@ void Viewer::handle_input(double dt) {
   }
 }
 
-void Viewer::apply(const PathAction& a) {
-  const auto& v = a.value;
-  auto f = [&](size_t i) { return v[i].get<float>(); };
-  auto v3 = [&]() { return v.is_array() ? Vec3(f(0), f(1), f(2)) : Vec3(v.get<float>()); };
-  auto strategy = [&]() { return parse_strategy(v.get<std::string>(), a.where); };
-  const std::string& k = a.key;
-  if (k == "orbit") camera_.orbit(f(0), f(1));
-  else if (k == "look") camera_.look(f(0), f(1));
-  else if (k == "pan") camera_.pan(f(0), f(1));
-  else if (k == "dolly") camera_.dolly(v.get<float>());
-  else if (k == "move") camera_.move(f(0), f(1), f(2));
-  else if (k == "camera") camera_.set(parse_scene(nlohmann::json{{"camera", v}}, a.where, ".").camera);
-  else if (k == "reset") camera_.reset();
-  else if (k == "fov") camera_.set_fov(v.get<float>());
-  else if (k == "fly") fly_ = v.get<bool>();
-  else if (k == "fly_speed") fly_speed_ = v.get<float>();
-  else if (k == "strategy") integrator_.strategy = strategy();
-  else if (k == "mis") integrator_.mis = parse_mis(v.get<std::string>(), a.where);
-  else if (k == "light_selection") integrator_.light_selection = parse_light_selection(v.get<std::string>(), a.where);
-  else if (k == "restir_temporal") integrator_.restir.temporal = v.get<bool>();
-  else if (k == "restir_pairwise") integrator_.restir.pairwise = v.get<bool>();
-  else if (k == "restir_bvh_candidates")
-    integrator_.restir.source = v.get<bool>() ? LightSelection::Bvh : LightSelection::Power;
-  else if (k == "restir_visibility_reuse") integrator_.restir.visibility_reuse = v.get<bool>();
-  else if (k == "restir_candidates") integrator_.restir.candidates = v.get<uint32_t>();
-  else if (k == "restir_spatial") integrator_.restir.spatial_passes = v.get<uint32_t>();
-  else if (k == "spp_per_frame") spp_per_frame_ = v.get<int>();
-  else if (k == "max_depth") integrator_.max_depth = v.get<int>();
-  else if (k == "exposure") exposure_ = v.get<float>();
-  else if (k == "scale") scale_ = v.get<float>();
-  else if (k == "light_radius" || k == "light_center" || k == "light_power") {
-    if (!light_.sphere) throw SceneError(a.where + ": the scene's first light is not a sphere");
-    if (k == "light_radius") light_.radius = v.get<float>();
-    else if (k == "light_center") light_.center = v3();
-    else light_.power = v3();
-  } else if (k == "split") split_ = v.get<bool>();
-  else if (k == "split_left") left_ = strategy();
-  else if (k == "split_right") right_ = strategy();
-  else if (k == "divider") divider_ = v.get<float>();
-  else if (k == "equal_time") equal_time_ = v.get<bool>();
-  else if (k == "panel") panel_ = v.get<bool>();
-  else if (k == "denoise") denoise_ = v.get<bool>();
-  else if (k == "screenshot") screenshot(v.get<std::string>());  // frame >= 1 (checked): an image exists
-  else if (k == "window_screenshot") pending_window_shots_.push_back(v.get<std::string>());
-  else if (k == "save_camera") save_camera_file(v.get<std::string>());
-  else if (k == "load_camera") load_camera_file(v.get<std::string>());
-  else if (k == "key") press(v.get<std::string>());
-  else if (k == "quit") quit_ = true;
+// An action of the table (actions_table.h) by name, with a valid value: checked when the camera path was read, or
+// made by a key.
+void Viewer::act(const std::string& action, const nlohmann::json& value, const std::string& where) {
+  using Apply = void (*)(Viewer&, const nlohmann::json&, const std::string&);
+  static const std::map<std::string, Apply> applies = [] {
+    std::map<std::string, Apply> t;
+    for_each_action([&](const char* name, const ActionCheck&, Apply apply) { t.emplace(name, apply); });
+    return t;
+  }();
+  applies.at(action)(*this, value, where);
 }
+
+void Viewer::apply(const PathAction& a) { act(a.key, a.value, a.where); }
 
 }  // namespace pn::viewer

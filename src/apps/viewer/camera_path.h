@@ -26,13 +26,14 @@ struct PathAction {
 std::vector<PathAction> load_camera_path(const std::string& path);
 std::vector<PathAction> parse_camera_path(const std::string& text, const std::string& source);
 
-// The action names the format knows, for documentation and messages.
+// The action names the format knows (the viewer's actions with a check,
+// actions_table.h), sorted, for documentation and messages.
 const std::vector<std::string>& camera_path_keys();
 
-// The viewer's keys by name, one list for the window's key presses and the
-// camera path's "key" action ({"frame": N, "key": "N"}): "1".."9" (a strategy;
-// "shift+1".. its right side in split screen), "R", "F", "P", "N", "Tab"
-// (docs/viewer.md says what each does).
+// The viewer's keys by name (for_each_key, actions_table.h), one list for the
+// window's key presses and the camera path's "key" action ({"frame": N, "key":
+// "N"}): "1".."9" (a strategy; "shift+1".. its right side in split screen),
+// "R", "F", "P", "N", "Tab" (docs/viewer.md says what each does).
 const std::vector<std::string>& viewer_keys();
 // Whether `name` is one of them, "shift+" prefixed where that means something.
 bool is_viewer_key(const std::string& name);

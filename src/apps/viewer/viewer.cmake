@@ -6,9 +6,11 @@
 # Included from the top-level CMakeLists.txt after the `penumbra` target exists.
 option(PENUMBRA_VIEWER "Build the interactive viewer when GLFW, OpenGL and Dear ImGui are found" ON)
 
-# What needs no window (camera control, camera paths, progressive images and
-# their tone-mapping) is always built, and unit-tested in tests/apps/test_viewer.cpp.
+# What needs no window (camera control, camera paths and the checks of the
+# viewer's actions, progressive images and their tone-mapping) is always built,
+# and unit-tested in tests/apps/test_viewer.cpp.
 add_library(penumbra_viewer_core STATIC
+  src/apps/viewer/actions_table.cpp
   src/apps/viewer/camera_control.cpp
   src/apps/viewer/camera_path.cpp
   src/apps/viewer/progressive.cpp)

@@ -4,7 +4,8 @@
 //   viewer.cpp     opening the window or the headless context, the frame loop;
 //   scheduler.cpp  what the images should be, restarts, samples each frame (split screen, equal time), the
 //                  composed and denoised image;
-//   actions.cpp    keys, the mouse, camera-path actions, screenshots, camera files;
+//   actions.cpp    the actions by name (actions_table.h) for camera paths and keys; the mouse, screenshots,
+//                  camera files;
 //   panel.cpp      the Dear ImGui panel and the overlay.
 #pragma once
 
@@ -135,7 +136,13 @@ class Viewer {
   void screenshot(const std::string& path);
   void screenshot_button();
   void window_screenshot(const std::string& path);
-  void set_strategy_key(int index, bool right_side);
+  // An action of the table in actions_table.h, by name; its applies and key bindings, friends here, set the
+  // members below.
+  void act(const std::string& action, const nlohmann::json& value, const std::string& where);
+  template <class Visit>
+  friend void for_each_action(Visit&& visit);
+  template <class Visit>
+  friend void for_each_key(Visit&& visit);
   void press(const std::string& key);  // a key of viewer_keys() (camera_path.h), from the window or a script
   void save_camera_file(const std::string& path);
   void load_camera_file(const std::string& path);
