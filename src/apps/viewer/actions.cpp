@@ -1,5 +1,5 @@
-// What changes the viewer besides the panel (viewer_state.h): its actions by
-// name (the table in actions_table.h) for camera paths and keys; keys by name
+// What changes the viewer (viewer_state.h): its actions by name (the table in
+// actions_table.h) for camera paths, keys and the panel; keys by name
 // (viewer_keys, camera_path.h); the mouse; screenshots and camera files.
 #include <algorithm>
 #include <cmath>
@@ -209,7 +209,7 @@ void Viewer::handle_input(double dt) {
 }
 
 // An action of the table (actions_table.h) by name, with a valid value: checked when the camera path was read, or
-// made by a key.
+// made by a key or the panel.
 void Viewer::act(const std::string& action, const nlohmann::json& value, const std::string& where) {
   using Apply = void (*)(Viewer&, const nlohmann::json&, const std::string&);
   static const std::map<std::string, Apply> applies = [] {

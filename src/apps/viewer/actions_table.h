@@ -6,7 +6,8 @@
 // Who reads the list:
 //   camera_path.cpp  the checks, when a camera path is read (and the names: camera_path_keys, viewer_keys);
 //   actions.cpp      the applies: Viewer::act, which runs camera-path actions (Viewer::apply) and keys
-//                    (Viewer::press, from the window or a camera path's "key").
+//                    (Viewer::press, from the window or a camera path's "key");
+//   panel.cpp        the panel's controls that set one value, through Viewer::act.
 //
 // An apply is a generic lambda of the viewer (`auto& w`: the Viewer of
 // viewer_state.h, whose friends these functions are). A generic lambda's body

@@ -16,9 +16,14 @@ namespace pn::viewer {
 
 namespace {
 
-// A combo box over one of the registries' enums, listed by their names.
+// The panel's controls set the viewer through its actions (actions_table.h),
+// as keys and camera paths do; `where` for the actions' messages.
+const std::string kPanel = "the panel";
+
+// A combo box over one of the registries' enums, listed by their names; true
+// when the user chose another (then *value).
 template <class E>
-void enum_combo(const char* label, E* value, int count, const char* (*name)(E)) {
+bool enum_combo(const char* label, E* value, int count, const char* (*name)(E)) {
   struct Names {
     const char* (*name)(E);
   } names{name};
@@ -29,20 +34,11 @@ void enum_combo(const char* label, E* value, int count, const char* (*name)(E)) 
             *out = static_cast<Names*>(data)->name(E(k));
             return true;
           },
-          &names, count))
+          &names, count)) {
     *value = E(i);
-}
-
-// ImGui's widgets on the settings' own fields: a 0/1 flag, a count clamped to
-// [lo, most] (typed values may leave the slider's range).
-void flag_checkbox(const char* label, uint32_t* flag) {
-  bool b = *flag != 0;
-  if (ImGui::Checkbox(label, &b)) *flag = b ? 1u : 0u;
-}
-void count_slider(const char* label, uint32_t* count, int lo, int hi, int most, ImGuiSliderFlags flags = 0) {
-  int v = int(*count);
-  ImGui::SliderInt(label, &v, lo, hi, "%d", flags);
-  *count = uint32_t(std::clamp(v, lo, most));
+    return true;
+  }
+  return false;
 }
 
 }  // namespace
@@ -73,8 +69,9 @@ void Viewer::draw_panel() {
     ImGui::Text("%s%-11s %5llu spp %6.3g us/px", sides_.size() > 1 ? (&s == &sides_[0] ? "left  " : "right ") : "",
                 strategy_name(s.strategy), (unsigned long long)s.image->samples(), s.seconds_per_pixel() * 1e6);
 
-  auto strategy_combo = [](const char* label, Strategy* s) {
-    int i = int(*s);
+  // ImGui's widgets write the value they show: each gets a copy of the viewer's, and a change becomes its action.
+  auto strategy_combo = [this](const char* label, const char* action, Strategy s) {
+    int i = int(s);
     bool changed = ImGui::Combo(
         label, &i,
         [](void*, int k, const char** out) {
@@ -84,34 +81,55 @@ void Viewer::draw_panel() {
           return true;
         },
         nullptr, kNumStrategies);
-    if (changed) *s = Strategy(i);
+    if (changed) act(action, strategy_name(Strategy(i)), kPanel);
+  };
+  auto checkbox = [this](const char* label, const char* action, bool b) {
+    if (ImGui::Checkbox(label, &b)) act(action, b, kPanel);
+  };
+  auto slider_int = [this](const char* label, const char* action, int v, int lo, int hi, ImGuiSliderFlags flags = 0) {
+    if (ImGui::SliderInt(label, &v, lo, hi, "%d", flags)) act(action, v, kPanel);
+  };
+  auto slider_float = [this](const char* label, const char* action, float v, float lo, float hi, const char* format,
+                             ImGuiSliderFlags flags = 0) {
+    if (ImGui::SliderFloat(label, &v, lo, hi, format, flags)) act(action, v, kPanel);
+  };
+  // restir's counts: a typed value may leave the slider's range; it is clamped to [lo, most].
+  auto count_slider = [this](const char* label, const char* action, uint32_t count, int lo, int hi, int most,
+                             ImGuiSliderFlags flags = 0) {
+    int v = int(count);
+    ImGui::SliderInt(label, &v, lo, hi, "%d", flags);
+    const uint32_t clamped = uint32_t(std::clamp(v, lo, most));
+    if (clamped != count) act(action, clamped, kPanel);
   };
   ImGui::Separator();
-  IntegratorSettings& in = integrator_;
-  if (!split_) strategy_combo("strategy", &in.strategy);
-  enum_combo("MIS", &in.mis, kNumMisModes, mis_name);
+  const IntegratorSettings& in = integrator_;
+  if (!split_) strategy_combo("strategy", "strategy", in.strategy);
+  Mis mis = in.mis;
+  if (enum_combo("MIS", &mis, kNumMisModes, mis_name)) act("mis", mis_name(mis), kPanel);
   // How the light of each sample is chosen (restir with the scene's
   // render.restir settings; temporal reuse between frames as the panel says).
-  enum_combo("light selection", &in.light_selection, kNumLightSelections, light_selection_name);
+  LightSelection selection = in.light_selection;
+  if (enum_combo("light selection", &selection, kNumLightSelections, light_selection_name))
+    act("light_selection", light_selection_name(selection), kPanel);
   if (in.light_selection == LightSelection::Restir) {
-    RestirSettings& r = in.restir;
-    flag_checkbox("temporal reuse", &r.temporal);
-    if (r.unbiased) flag_checkbox("pairwise MIS", &r.pairwise);
+    const RestirSettings& r = in.restir;
+    checkbox("temporal reuse", "restir_temporal", r.temporal != 0);
+    if (r.unbiased) checkbox("pairwise MIS", "restir_pairwise", r.pairwise != 0);
     // Off: unshadowed targets in the reuse, one shadow ray when shading (the study's restir-unshadowed).
-    flag_checkbox("visibility reuse", &r.visibility_reuse);
+    checkbox("visibility reuse", "restir_visibility_reuse", r.visibility_reuse != 0);
     // ris-bvh of the study: BVH candidates, no spatial pass, no temporal reuse.
-    bool bvh = r.source == LightSelection::Bvh;
-    if (ImGui::Checkbox("BVH candidates", &bvh)) r.source = bvh ? LightSelection::Bvh : LightSelection::Power;
-    count_slider("candidates", &r.candidates, 1, 256, int(kMaxRestirCandidates), ImGuiSliderFlags_Logarithmic);
-    count_slider("spatial passes", &r.spatial_passes, 0, 4, int(kMaxRestirPasses));
+    checkbox("BVH candidates", "restir_bvh_candidates", r.source == LightSelection::Bvh);
+    count_slider("candidates", "restir_candidates", r.candidates, 1, 256, int(kMaxRestirCandidates),
+                 ImGuiSliderFlags_Logarithmic);
+    count_slider("spatial passes", "restir_spatial", r.spatial_passes, 0, 4, int(kMaxRestirPasses));
     ImGui::TextDisabled("%s", light_selection_label(in.light_selection, r).c_str());
   }
   ImGui::TextDisabled("%zu lights", scene_->lights.size());
-  ImGui::SliderInt("spp / frame", &spp_per_frame_, 1, 256, "%d", ImGuiSliderFlags_Logarithmic);
-  ImGui::SliderInt("max depth", &in.max_depth, 0, 32);
-  ImGui::SliderFloat("exposure", &exposure_, -8.f, 8.f, "%+.1f stops");
-  ImGui::SliderFloat("resolution", &scale_, 0.05f, 2.f, "x %.2f", ImGuiSliderFlags_Logarithmic);
-  ImGui::Checkbox("denoise (N)", &denoise_);
+  slider_int("spp / frame", "spp_per_frame", spp_per_frame_, 1, 256, ImGuiSliderFlags_Logarithmic);
+  slider_int("max depth", "max_depth", in.max_depth, 0, 32);
+  slider_float("exposure", "exposure", exposure_, -8.f, 8.f, "%+.1f stops");
+  slider_float("resolution", "scale", scale_, 0.05f, 2.f, "x %.2f", ImGuiSliderFlags_Logarithmic);
+  checkbox("denoise (N)", "denoise", denoise_);
   ImGui::SameLine();
   if (denoise_ && !denoiser_.empty())
     ImGui::TextDisabled("%s: %.1f ms a frame", denoiser_.c_str(), denoise_ms_);
@@ -119,16 +137,18 @@ void Viewer::draw_panel() {
     ImGui::TextDisabled("Intel Open Image Denoise, albedo + normal guides");
 
   if (ImGui::CollapsingHeader("Split screen", ImGuiTreeNodeFlags_DefaultOpen)) {
-    ImGui::Checkbox("split", &split_);
+    checkbox("split", "split", split_);
     ImGui::SameLine();
-    ImGui::Checkbox("equal time", &equal_time_);
+    checkbox("equal time", "equal_time", equal_time_);
     if (split_) {
-      strategy_combo("left", &left_);
-      strategy_combo("right", &right_);
+      strategy_combo("left", "split_left", left_);
+      strategy_combo("right", "split_right", right_);
       ImGui::TextDisabled("keys 1-4: left side, shift+1-4: right side");
-      ImGui::SliderFloat("divider", &divider_, 0.f, 1.f, "%.2f");
+      slider_float("divider", "divider", divider_, 0.f, 1.f, "%.2f");
     }
   }
+  // The light's controls edit light_ in place, not through the light actions: the radius is held above 1e-4 every
+  // frame and "reset light" restores the whole edit, neither of which is one action's value.
   if (ImGui::CollapsingHeader("Light", ImGuiTreeNodeFlags_DefaultOpen)) {
     if (!light_.sphere) {
       ImGui::TextDisabled("the first light is not a sphere");
@@ -145,16 +165,18 @@ void Viewer::draw_panel() {
   }
   if (ImGui::CollapsingHeader("Camera")) {
     float fov = camera_.desc().fov;
-    if (ImGui::SliderFloat("fov", &fov, 5.f, 120.f, "%.1f deg")) camera_.set_fov(fov);
-    ImGui::Checkbox("fly (F)", &fly_);
+    if (ImGui::SliderFloat("fov", &fov, 5.f, 120.f, "%.1f deg")) act("fov", fov, kPanel);
+    checkbox("fly (F)", "fly", fly_);
     ImGui::SameLine();
     ImGui::SetNextItemWidth(120);
-    ImGui::DragFloat("speed", &fly_speed_, fly_speed_ * 0.01f, 1e-4f, 1e6f, "%.3g/s", ImGuiSliderFlags_Logarithmic);
-    if (ImGui::Button("reset (R)")) camera_.reset();
+    float speed = fly_speed_;
+    if (ImGui::DragFloat("speed", &speed, fly_speed_ * 0.01f, 1e-4f, 1e6f, "%.3g/s", ImGuiSliderFlags_Logarithmic))
+      act("fly_speed", speed, kPanel);
+    if (ImGui::Button("reset (R)")) act("reset", true, kPanel);
     ImGui::InputText("file", &camera_file_);
     if (ImGui::Button("save camera")) {
       try {
-        save_camera_file(camera_file_);
+        act("save_camera", camera_file_, kPanel);
       } catch (const std::exception& e) {
         status_ = e.what();
       }
@@ -162,14 +184,14 @@ void Viewer::draw_panel() {
     ImGui::SameLine();
     if (ImGui::Button("load camera")) {
       try {
-        load_camera_file(camera_file_);
+        act("load_camera", camera_file_, kPanel);
       } catch (const std::exception& e) {
         status_ = e.what();
       }
     }
   }
   ImGui::Separator();
-  if (ImGui::Button("screenshot (P)")) screenshot_requested_ = true;
+  if (ImGui::Button("screenshot (P)")) act("screenshot_button", true, kPanel);
   ImGui::SameLine();
   ImGui::TextDisabled("PNG + EXR");
   if (!status_.empty()) ImGui::TextWrapped("%s", status_.c_str());

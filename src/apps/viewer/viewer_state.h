@@ -4,8 +4,8 @@
 //   viewer.cpp     opening the window or the headless context, the frame loop;
 //   scheduler.cpp  what the images should be, restarts, samples each frame (split screen, equal time), the
 //                  composed and denoised image;
-//   actions.cpp    the actions by name (actions_table.h) for camera paths and keys; the mouse, screenshots,
-//                  camera files;
+//   actions.cpp    the actions by name (actions_table.h) for camera paths, keys and the panel; the mouse,
+//                  screenshots, camera files;
 //   panel.cpp      the Dear ImGui panel and the overlay.
 #pragma once
 
