@@ -12,11 +12,13 @@
 #include <map>
 #include <random>
 #include <set>
+#include <thread>
 
 #include "apps/viewer/actions_table.h"
 #include "apps/viewer/camera_control.h"
 #include "apps/viewer/camera_path.h"
 #include "apps/viewer/progressive.h"
+#include "apps/viewer/scheduler.h"
 #include "apps/viewer/tone_map.h"
 #if PN_TEST_DEVICE_IMAGE
 #include <cuda_runtime.h>
@@ -439,6 +441,128 @@ TEST(Display, DeviceImageIsTheHostImageOnTheGpu) {
   EXPECT_EQ(got, want) << "the device's display bytes differ from the host path's";
 }
 #endif
+
+// --- The RenderScheduler: restarts, the split screen's sides, equal time ------
+
+// An image whose samples cost a fixed time and whose mean names its frame (seed, strategy), for the scheduler's
+// bookkeeping without a renderer.
+class FakeImage final : public ProgressiveImage {
+ public:
+  FakeImage(double ms_per_sample, bool device, int* made) : ms_(ms_per_sample), device_(device) { ++*made; }
+  void restart(const FrameSpec& f) override {
+    w_ = f.camera.width;
+    h_ = f.camera.height;
+    n_ = 0;
+    value_ = float(f.seed) + 100.f * float(int(f.integrator.strategy));
+    ++restarts;
+  }
+  void add_samples(uint32_t spp) override {
+    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(ms_ * spp));
+    n_ += spp;
+  }
+  uint64_t samples() const override { return n_; }
+  int width() const override { return w_; }
+  int height() const override { return h_; }
+  void tone_map(const DisplayPixels&, int, int, float) const override {}
+  bool writes_device_pixels() const override { return device_; }
+  std::vector<float> mean() const override { return std::vector<float>(size_t(w_) * h_ * 3, value_); }
+  int restarts = 0;
+
+ private:
+  double ms_;
+  bool device_;
+  int w_ = 0, h_ = 0;
+  uint64_t n_ = 0;
+  float value_ = 0;
+};
+
+class NoBackend final : public Backend {
+ public:
+  std::string name() const override { return "none"; }
+  std::string device_name() const override { return "none"; }
+  void render(const FrameSpec&, Film&, uint32_t, uint32_t, const ProgressFn&) override {}
+};
+
+ImageSettings split_settings(bool equal_time) {
+  ImageSettings s;
+  s.width = 16;
+  s.height = 4;
+  s.split = true;
+  s.left = Strategy::Area;
+  s.right = Strategy::SolidAngle;
+  s.equal_time = equal_time;
+  return s;
+}
+
+FrameSpec frame_of(const ImageSettings& s, uint32_t seed) {
+  FrameSpec f;
+  f.camera = Camera::look_at(Vec3(0.f), Vec3(0.f, 0.f, -1.f), Vec3(0.f, 1.f, 0.f), 40.f, s.width, s.height);
+  f.seed = seed;
+  return f;
+}
+
+TEST(RenderScheduler, SplitScreenSidesHaveTheirStrategiesAndSeedsAndMeetAtTheDivider) {
+  RenderScheduler r;
+  int made = 0;
+  const ImageSettings s = split_settings(false);
+  r.restart(s, frame_of(s, 7), false, [&] { return std::make_unique<FakeImage>(0.0, false, &made); });
+  ASSERT_EQ(r.sides().size(), 2u);
+  EXPECT_EQ(r.sides()[0].strategy, Strategy::Area);
+  EXPECT_EQ(r.sides()[1].strategy, Strategy::SolidAngle);
+  const float left = 7.f + 100.f * int(Strategy::Area), right = 8.f + 100.f * int(Strategy::SolidAngle);
+  EXPECT_EQ(r.sides()[0].image->mean()[0], left);   // the frame's seed
+  EXPECT_EQ(r.sides()[1].image->mean()[0], right);  // its seed + 1: independent errors
+  EXPECT_EQ(r.divider_column(0.25f), 4);
+  const std::vector<float> m = r.composed_mean(0.25f);
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x)
+      EXPECT_EQ(m[(size_t(y) * s.width + x) * 3], x < 4 ? left : right) << x << "," << y;
+  NoBackend none;
+  r.render(3, none);
+  EXPECT_EQ(r.sides()[0].image->samples(), 3u);  // equal samples: each side its 3
+  EXPECT_EQ(r.sides()[1].image->samples(), 3u);
+}
+
+TEST(RenderScheduler, RestartReusesTheImagesThatWriteTheSamePixels) {
+  RenderScheduler r;
+  int made = 0;
+  ImageSettings s = split_settings(false);
+  auto host = [&] { return std::make_unique<FakeImage>(0.0, false, &made); };
+  auto device = [&] { return std::make_unique<FakeImage>(0.0, true, &made); };
+  r.restart(s, frame_of(s, 1), false, host);
+  EXPECT_EQ(made, 2);
+  s.width = 20;  // a new size: the same images, restarted
+  r.restart(s, frame_of(s, 1), false, host);
+  EXPECT_EQ(made, 2);
+  EXPECT_EQ(r.sides()[0].image->width(), 20);
+  r.restart(s, frame_of(s, 1), true, device);  // the display path changed: new images
+  EXPECT_EQ(made, 4);
+  r.clear();
+  EXPECT_FALSE(r.started());
+  r.restart(s, frame_of(s, 1), true, device);  // cleared (a new backend): new images
+  EXPECT_EQ(made, 6);
+}
+
+// Equal time: a side whose samples cost a quarter as much gets about four times the samples, the render time of
+// each side about the same. Sleeps stand for the costs; the bounds allow for their overshoot on a loaded machine.
+TEST(RenderScheduler, EqualTimeGivesTheCheaperSideMoreSamplesForTheSameTime) {
+  RenderScheduler r;
+  int made = 0;
+  const ImageSettings s = split_settings(true);
+  bool cheap = true;  // the left side is made first
+  r.restart(s, frame_of(s, 1), false, [&] {
+    auto image = std::make_unique<FakeImage>(cheap ? 1.0 : 4.0, false, &made);
+    cheap = false;
+    return image;
+  });
+  NoBackend none;
+  for (int frame = 0; frame < 16; ++frame) r.render(1, none);
+  const double a = double(r.sides()[0].image->samples()), b = double(r.sides()[1].image->samples());
+  EXPECT_GT(a / b, 2.0) << a << " against " << b << " samples";
+  EXPECT_LT(a / b, 6.0) << a << " against " << b << " samples";
+  const double ta = r.sides()[0].seconds, tb = r.sides()[1].seconds;
+  EXPECT_LT(std::abs(ta - tb), 0.35 * std::max(ta, tb)) << ta << " s against " << tb << " s";
+}
 
 }  // namespace
 }  // namespace pn::viewer

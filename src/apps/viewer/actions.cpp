@@ -26,20 +26,20 @@ namespace pn::viewer {
 std::string Viewer::screenshot_stem() const {
   char buf[256];
   std::string stem = scene_name_ + "_";
-  if (sides_.size() == 1) {
-    stem += std::string(strategy_name(sides_[0].strategy)) + "_" + std::to_string(sides_[0].image->samples()) + "spp";
+  if (scheduler_.sides().size() == 1) {
+    stem += std::string(strategy_name(scheduler_.sides()[0].strategy)) + "_" + std::to_string(scheduler_.sides()[0].image->samples()) + "spp";
   } else {
-    stem += std::string(strategy_name(sides_[0].strategy)) + "-" + std::to_string(sides_[0].image->samples()) +
-            "spp_vs_" + strategy_name(sides_[1].strategy) + "-" + std::to_string(sides_[1].image->samples()) + "spp";
-    stem += applied_.equal_time ? "_equal-time" : "_equal-spp";
+    stem += std::string(strategy_name(scheduler_.sides()[0].strategy)) + "-" + std::to_string(scheduler_.sides()[0].image->samples()) +
+            "spp_vs_" + strategy_name(scheduler_.sides()[1].strategy) + "-" + std::to_string(scheduler_.sides()[1].image->samples()) + "spp";
+    stem += scheduler_.applied().equal_time ? "_equal-time" : "_equal-spp";
   }
-  std::snprintf(buf, sizeof buf, "_d%d", applied_.integrator.max_depth);
+  std::snprintf(buf, sizeof buf, "_d%d", scheduler_.applied().integrator.max_depth);
   stem += buf;
   if (light_applied_.sphere) {
     std::snprintf(buf, sizeof buf, "_r%g", double(light_applied_.radius));
     stem += buf;
   }
-  std::snprintf(buf, sizeof buf, "_%dx%d", applied_.width, applied_.height);
+  std::snprintf(buf, sizeof buf, "_%dx%d", scheduler_.applied().width, scheduler_.applied().height);
   stem += buf;
   if (exposure_ != 0.f) {
     std::snprintf(buf, sizeof buf, "_e%+g", double(exposure_));
@@ -49,13 +49,13 @@ std::string Viewer::screenshot_stem() const {
 }
 
 void Viewer::screenshot(const std::string& path) {
-  write_image(path, applied_.width, applied_.height, composed_mean(), exposure_);
+  write_image(path, scheduler_.applied().width, scheduler_.applied().height, scheduler_.composed_mean(divider_), exposure_);
   std::fprintf(stderr, "wrote %s\n", path.c_str());
 }
 
 // The panel's button (and P): PNG and EXR side by side, never overwriting.
 void Viewer::screenshot_button() {
-  if (!started_) return;
+  if (!scheduler_.started()) return;
   namespace fs = std::filesystem;
   std::string stem = screenshot_stem(), base = stem;
   for (int k = 2; fs::exists(base + ".png") || fs::exists(base + ".exr"); ++k) base = stem + "_" + std::to_string(k);
@@ -171,7 +171,9 @@ void Viewer::handle_input(double dt) {
   if (!left && !middle) drag_ = Drag::None;
   bool starting = false;
   if (drag_ == Drag::None && (left || middle) && !io.WantCaptureMouse) {
-    double divider_x = applied_.split ? double(divider_column()) / applied_.width * ww : -1e9;
+    double divider_x = scheduler_.applied().split
+                           ? double(scheduler_.divider_column(divider_)) / scheduler_.applied().width * ww
+                           : -1e9;
     if (left && !shift && std::abs(x - divider_x) <= 6.0) drag_ = Drag::Divider;
     else if (middle || shift) drag_ = Drag::Pan;
     else drag_ = fly_ ? Drag::Look : Drag::Orbit;

@@ -52,7 +52,7 @@ void Viewer::draw_panel() {
   }
   ImGui::Text("%s", scene_->source.c_str());
   ImGui::TextWrapped("%s: %s", backend_->name().c_str(), backend_->device_name().c_str());
-  ImGui::Text("image %dx%d, display: %s", applied_.width, applied_.height, display_path_name(display_path_.path));
+  ImGui::Text("image %dx%d, display: %s", scheduler_.applied().width, scheduler_.applied().height, display_path_name(display_path_.path));
   if (display_path_.path != DisplayPath::Interop && backend_->name() == "optix")
     ImGui::TextWrapped("%s", display_path_.note.c_str());  // why not interop
 
@@ -64,9 +64,10 @@ void Viewer::draw_panel() {
   ImGui::PlotLines("##frame", recent_ms_.data(), int(recent_ms_.size()), 0, overlay, 0.f,
                    float(std::max(1.0, 2.0 * avg)), ImVec2(ImGui::GetContentRegionAvail().x, 48));
   ImGui::Text("render %.1f ms/frame, %.1f s since restart", last_render_ms_,
-              std::chrono::duration<double>(Clock::now() - restart_time_).count());
-  for (const Side& s : sides_)
-    ImGui::Text("%s%-11s %5llu spp %6.3g us/px", sides_.size() > 1 ? (&s == &sides_[0] ? "left  " : "right ") : "",
+              scheduler_.seconds_since_restart());
+  const std::vector<Side>& sides = scheduler_.sides();
+  for (const Side& s : sides)
+    ImGui::Text("%s%-11s %5llu spp %6.3g us/px", sides.size() > 1 ? (&s == &sides[0] ? "left  " : "right ") : "",
                 strategy_name(s.strategy), (unsigned long long)s.image->samples(), s.seconds_per_pixel() * 1e6);
 
   // ImGui's widgets write the value they show: each gets a copy of the viewer's, and a change becomes its action.
@@ -207,16 +208,17 @@ void Viewer::draw_panel() {
 
 // The divider and the strategy of each side, drawn over the image (not part of screenshots of the image).
 void Viewer::draw_overlay() {
-  if (sides_.size() < 2) return;
+  const std::vector<Side>& sides = scheduler_.sides();
+  if (sides.size() < 2) return;
   ImDrawList* dl = ImGui::GetBackgroundDrawList();
   const ImVec2 size = ImGui::GetIO().DisplaySize;
-  const float x = float(divider_column()) / applied_.width * size.x;
+  const float x = float(scheduler_.divider_column(divider_)) / scheduler_.applied().width * size.x;
   dl->AddLine(ImVec2(x, 0), ImVec2(x, size.y), IM_COL32(255, 255, 255, 200), 1.5f);
-  for (const Side& s : sides_) {
+  for (const Side& s : sides) {
     char label[64];
     std::snprintf(label, sizeof label, "%s  %llu spp", strategy_name(s.strategy), (unsigned long long)s.image->samples());
     ImVec2 ts = ImGui::CalcTextSize(label);
-    float lx = &s == &sides_[0] ? x - ts.x - 8 : x + 8;
+    float lx = &s == &sides[0] ? x - ts.x - 8 : x + 8;
     float ly = size.y - ts.y - 6;
     dl->AddRectFilled(ImVec2(lx - 3, ly - 2), ImVec2(lx + ts.x + 3, ly + ts.y + 2), IM_COL32(0, 0, 0, 150));
     dl->AddText(ImVec2(lx, ly), IM_COL32(255, 255, 255, 255), label);

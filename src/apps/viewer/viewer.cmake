@@ -13,7 +13,8 @@ add_library(penumbra_viewer_core STATIC
   src/apps/viewer/actions_table.cpp
   src/apps/viewer/camera_control.cpp
   src/apps/viewer/camera_path.cpp
-  src/apps/viewer/progressive.cpp)
+  src/apps/viewer/progressive.cpp
+  src/apps/viewer/scheduler.cpp)
 target_link_libraries(penumbra_viewer_core PUBLIC penumbra_lib PRIVATE penumbra_warnings)
 target_sources(penumbra PRIVATE src/apps/viewer/cmd_view.cpp)
 target_link_libraries(penumbra PRIVATE penumbra_viewer_core)
@@ -86,7 +87,7 @@ endif()
 if(PENUMBRA_HAVE_VIEWER)
   add_library(penumbra_viewer STATIC
     src/apps/viewer/viewer.cpp
-    src/apps/viewer/scheduler.cpp
+    src/apps/viewer/images.cpp
     src/apps/viewer/actions.cpp
     src/apps/viewer/panel.cpp
     src/apps/viewer/gl_display.cpp

@@ -235,7 +235,7 @@ std::unique_ptr<ProgressiveImage> Viewer::make_image() {
 }
 
 Viewer::~Viewer() {
-  sides_.clear();
+  scheduler_.clear();
   if (imgui_gl3_) ImGui_ImplOpenGL3_Shutdown();
   if (imgui_glfw_) ImGui_ImplGlfw_Shutdown();
   if (imgui_) ImGui::DestroyContext();
@@ -296,7 +296,7 @@ int Viewer::run() {
     // for now get one more pass that only draws (no samples, no restart), so
     // they show the image after exactly this many frames.
     const bool last = quit_ || (opt_.frames > 0 && frame_ == uint64_t(opt_.frames));
-    if (last && (pending_window_shots_.empty() || !started_)) break;
+    if (last && (pending_window_shots_.empty() || !scheduler_.started())) break;
 
     ImGui_ImplOpenGL3_NewFrame();
     if (window_) {
@@ -317,12 +317,10 @@ int Viewer::run() {
     const double render_ms = last ? 0.0 : render_samples();
     const auto td = Clock::now();
     // Interop: CUDA writes the mapped GL pixel buffer; host: the staging buffer, uploaded.
-    const bool device = sides_[0].image->writes_device_pixels();
+    const bool device = scheduler_.writes_device_pixels();
     if (!(denoise_ && show_denoised())) {
       DisplayPixels px = device ? display_->map_device_pixels() : display_->host_pixels();
-      const int d = divider_column();
-      sides_[0].image->tone_map(px, 0, d, exposure_);
-      if (sides_.size() > 1) sides_[1].image->tone_map(px, d, applied_.width, exposure_);
+      scheduler_.tone_map(px, divider_, exposure_);
       if (device) display_->upload_mapped();
       else display_->upload();
     }
@@ -352,13 +350,13 @@ int Viewer::run() {
       last_title = Clock::now();
       char title[256];
       std::snprintf(title, sizeof title, "penumbra view: %s  %llu spp  %.1f ms/frame", scene_label().c_str(),
-                    (unsigned long long)sides_[0].image->samples(), last_frame_ms_);
+                    (unsigned long long)scheduler_.sides()[0].image->samples(), last_frame_ms_);
       if (window_) glfwSetWindowTitle(window_, title);
     }
     ++frame_;
   }
 
-  if (!opt_.screenshot.empty() && started_) screenshot(opt_.screenshot);
+  if (!opt_.screenshot.empty() && scheduler_.started()) screenshot(opt_.screenshot);
   if (opt_.frames > 0 && !frame_ms_.empty()) {
     const size_t n = frame_ms_.size();
     const double total = std::accumulate(frame_ms_.begin(), frame_ms_.end(), 0.0);
@@ -368,12 +366,12 @@ int Viewer::run() {
     std::vector<double> sorted = frame_ms_;
     std::sort(sorted.begin(), sorted.end());
     std::string spp;
-    for (const Side& s : sides_)
+    for (const Side& s : scheduler_.sides())
       spp += (spp.empty() ? "" : " | ") + std::string(strategy_name(s.strategy)) + " " + std::to_string(s.image->samples()) + " spp";
     std::fprintf(stderr,
                  "view: %zu frames of %dx%d (%s): %.2f ms/frame, %.1f fps as displayed (median %.2f ms; per frame: "
                  "render %.2f ms, tone-map + upload %.2f ms, UI %.2f ms, present %.2f ms; display: %s, %s backend%s)\n",
-                 n, applied_.width, applied_.height, spp.c_str(), total / n, 1000.0 * n / total, sorted[n / 2],
+                 n, scheduler_.applied().width, scheduler_.applied().height, spp.c_str(), total / n, 1000.0 * n / total, sorted[n / 2],
                  render, display, total / n - render - display - present, present,
                  display_path_name(display_path_.path), backend_->name().c_str(),
                  offscreen_ ? ", headless" : "");

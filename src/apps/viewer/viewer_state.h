@@ -1,9 +1,9 @@
-// The viewer's state, shared by its parts (internal to src/apps/viewer): what
-// changes the image (ImageSettings), the light being edited, the images on
-// screen (Side), and the Viewer, whose member functions live by concern:
+// The viewer's state, shared by its parts (internal to src/apps/viewer): the
+// Viewer, its controls and its RenderScheduler (scheduler.h: the images on
+// screen and what changes them), whose member functions live by concern:
 //   viewer.cpp     opening the window or the headless context, the frame loop;
-//   scheduler.cpp  what the images should be, restarts, samples each frame (split screen, equal time), the
-//                  composed and denoised image;
+//   images.cpp     what the images should be from the controls, light edits, restarts, each frame's samples
+//                  (through the RenderScheduler of scheduler.h, which owns the images), the denoised image;
 //   actions.cpp    the actions by name (actions_table.h) for camera paths, keys and the panel; the mouse,
 //                  screenshots, camera files;
 //   panel.cpp      the Dear ImGui panel and the overlay.
@@ -19,6 +19,7 @@
 #include "apps/viewer/gl_display.h"
 #include "apps/viewer/headless_gl.h"
 #include "apps/viewer/progressive.h"
+#include "apps/viewer/scheduler.h"
 #include "apps/viewer/viewer_options.h"
 #include "backends/denoise.h"
 #include "render/backend.h"
@@ -33,73 +34,6 @@ inline double ms_since(Clock::time_point t) { return std::chrono::duration<doubl
 
 inline const char* const kRenderHint = "use `penumbra render` to render to a file instead";
 
-
-inline bool same(Vec3 a, Vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
-inline bool same(const CameraDesc& a, const CameraDesc& b) {
-  return same(a.eye, b.eye) && same(a.target, b.target) && same(a.up, b.up) && a.fov == b.fov;
-}
-
-// The first light, when it is a sphere: the panel, keys and scripts edit its
-// centre, radius and power (a radius change keeps the power, so the scene's
-// brightness stays). The scene and the backend take an edit in place
-// (set_sphere_light, Backend::update_lights): nothing is loaded again, and the
-// meshes' acceleration structures are kept; a backend that cannot update is
-// made again from the edited scene.
-struct LightEdit {
-  bool sphere = false;
-  float radius = 0.f;
-  Vec3 center, power;
-  static LightEdit of(const Scene& s) {
-    LightEdit e;
-    if (s.lights.empty() || s.lights[0].type != LightType::Sphere) return e;
-    const Light& l = s.lights[0];
-    e.sphere = true;
-    e.radius = l.radius;
-    e.center = l.p;
-    e.power = l.radiance * (kPi * l.area);  // Phi = pi A L, the scene format's `power`
-    return e;
-  }
-};
-inline bool same(const LightEdit& a, const LightEdit& b) {
-  return a.sphere == b.sphere && a.radius == b.radius && same(a.center, b.center) && same(a.power, b.power);
-}
-
-// Everything that changes the rendered image (not exposure: that is display
-// only). Compared every frame; any difference restarts the accumulation.
-struct ImageSettings {
-  CameraDesc camera;
-  // The estimator; its strategy is the image's without split screen. restir's
-  // settings are the scene's unless restir selects the lights (so that the
-  // panel's restir controls restart nothing then).
-  IntegratorSettings integrator;
-  int width = 0, height = 0;
-  bool split = false;  // the divider is not here: it only chooses which image each column shows
-  Strategy left = Strategy::Area, right = Strategy::SolidAngle;
-  bool equal_time = false;
-  LightEdit light;  // the first light's centre, radius and power, where it is a sphere
-
-  bool operator==(const ImageSettings& o) const {
-    return same(camera, o.camera) && integrator == o.integrator && width == o.width && height == o.height &&
-           split == o.split && left == o.left && right == o.right && equal_time == o.equal_time &&
-           same(light, o.light);
-  }
-};
-
-
-// One progressive image: the only one, or one side of the split screen. In
-// the split screen each side renders the whole frame with its own strategy
-// (the Backend interface renders whole frames) and shows the columns on its
-// side of the divider: twice the work of one image, but the divider moves
-// without restarting, and equal time compares the strategies' costs on the
-// same pixels.
-struct Side {
-  std::unique_ptr<ProgressiveImage> image;
-  Strategy strategy = Strategy::SolidAngle;
-  double seconds = 0;  // render time since the restart
-  double seconds_per_pixel() const {
-    return image->width() ? seconds / (double(image->width()) * image->height()) : 0;
-  }
-};
 
 class Viewer {
  public:
@@ -128,9 +62,7 @@ class Viewer {
   void apply(const PathAction& a);
   // Helpers.
   ImageSettings wanted() const;
-  int divider_column() const;  // first column of the right side
   void restart(const ImageSettings& s);
-  std::vector<float> composed_mean() const;
   bool show_denoised();
   std::string screenshot_stem() const;
   void screenshot(const std::string& path);
@@ -155,7 +87,7 @@ class Viewer {
   std::string scene_name_;
   std::unique_ptr<Scene> scene_;
   std::unique_ptr<Backend> backend_;  // refers to *scene_: destroyed first
-  std::vector<Side> sides_;
+  RenderScheduler scheduler_;  // the images: restarts, split screen, equal time
 
   // Window and GL (headless: the EGL context and its framebuffer instead of the window).
   GLFWwindow* window_ = nullptr;
@@ -197,10 +129,7 @@ class Viewer {
   bool screenshot_requested_ = false;
 
   // Progress and timing.
-  ImageSettings applied_;
-  bool started_ = false;
   uint64_t frame_ = 0;
-  Clock::time_point restart_time_;
   std::vector<float> recent_ms_;  // the last frames' times, oldest first, for the graph
   double last_frame_ms_ = 0, last_render_ms_ = 0;
   std::vector<double> frame_ms_, render_ms_, display_ms_, present_ms_;  // every frame, for --frames
