@@ -95,9 +95,9 @@ CLI::Validator image_path_check();
 
 template <typename Int>
 void add_size_options(CLI::App* sub, Int* width, Int* height, const std::string& defaults) {
-  sub->add_option("--width", *width, "Image width in pixels (default: " + defaults + ")")
+  sub->add_option("--width", *width, "Image width in pixels (default size: " + defaults + ")")
       ->check(render_setting("width"));
-  sub->add_option("--height", *height, "Image height in pixels (default: " + defaults + ")")
+  sub->add_option("--height", *height, "Image height in pixels (default size: " + defaults + ")")
       ->check(render_setting("height"));
 }
 

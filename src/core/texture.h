@@ -50,6 +50,23 @@ PN_FN float srgb_to_linear(float c) {
   return c <= 0.04045f ? c * (1.f / 12.92f) : std::pow((c + 0.055f) * (1.f / 1.055f), 2.4f);
 }
 
+// An 8-bit sRGB value decoded: srgb_to_linear(v / 255), from a table on the host (the same floats, a lookup
+// instead of a pow per channel and texel).
+PN_FN float srgb8_to_linear(uint8_t v) {
+#if defined(__CUDA_ARCH__)
+  return srgb_to_linear(float(v) * (1.f / 255.f));
+#else
+  struct Table {
+    float f[256];
+    Table() {
+      for (int i = 0; i < 256; ++i) f[i] = srgb_to_linear(float(i) * (1.f / 255.f));
+    }
+  };
+  static const Table table;
+  return table.f[v];
+#endif
+}
+
 // One texel, wrapped, as linear RGBA (host side).
 PN_FN Rgba texel_fetch(const TextureView& t, int x, int y) {
   x %= t.width;
@@ -67,7 +84,7 @@ PN_FN Rgba texel_fetch(const TextureView& t, int x, int y) {
   const uint8_t* p = static_cast<const uint8_t*>(t.texels) + 4 * i;
   constexpr float k = 1.f / 255.f;
   if (t.format == TexelFormat::Rgba8Srgb)
-    r.rgb = Vec3(srgb_to_linear(p[0] * k), srgb_to_linear(p[1] * k), srgb_to_linear(p[2] * k));
+    r.rgb = Vec3(srgb8_to_linear(p[0]), srgb8_to_linear(p[1]), srgb8_to_linear(p[2]));
   else
     r.rgb = Vec3(p[0] * k, p[1] * k, p[2] * k);
   r.a = p[3] * k;

@@ -323,6 +323,19 @@ TEST(Texture, BilinearExactAtCentresLinearBetweenAndWraps) {
   EXPECT_NEAR(texture_lookup(t.view, Vec2(1.25f, 0.25f)).rgb.x, texture_lookup(t.view, Vec2(0.25f, 0.25f)).rgb.x, 1e-6f);
 }
 
+// The host's table of 8-bit sRGB values holds exactly what srgb_to_linear gives (the GPU's float texels are decoded
+// by the same function), and the curve is the standard's: continuous at the knee, 1 at 255.
+TEST(Texture, Srgb8TableIsTheDecodingCurveBitForBit) {
+  for (int v = 0; v < 256; ++v) {
+    const float expected = srgb_to_linear(float(v) * (1.f / 255.f));
+    EXPECT_EQ(srgb8_to_linear(uint8_t(v)), expected) << v;
+  }
+  EXPECT_EQ(srgb8_to_linear(0), 0.f);
+  EXPECT_NEAR(srgb8_to_linear(255), 1.f, 1e-6f);
+  EXPECT_NEAR(srgb8_to_linear(128), 0.2158605f, 1e-6f);  // ((128/255 + 0.055) / 1.055)^2.4
+  EXPECT_NEAR(srgb8_to_linear(10), 10.f / 255.f / 12.92f, 1e-9f);  // the linear segment below the knee
+}
+
 TEST(Texture, SrgbDecodedBeforeFiltering) {
   // Two texels, black and white, sRGB-encoded: halfway between them is linear
   // 0.5, not the decode of the encoded average (0.21).

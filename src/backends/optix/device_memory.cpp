@@ -79,7 +79,7 @@ void DeviceTexture::create(const TextureImage& image, const SceneSize& scene) {
     decoded.resize(size_t(w) * size_t(h) * 4);
     constexpr float k = 1.f / 255.f;
     for (size_t i = 0; i < decoded.size(); ++i)
-      decoded[i] = i % 4 == 3 ? image.texels[i] * k : srgb_to_linear(image.texels[i] * k);
+      decoded[i] = i % 4 == 3 ? image.texels[i] * k : srgb8_to_linear(image.texels[i]);
     texels = decoded.data();
   }
   static const uint8_t white8[4] = {255, 255, 255, 255};
