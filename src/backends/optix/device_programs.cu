@@ -21,7 +21,7 @@
 #include <optix.h>
 
 #include "backends/optix/launch_params.h"
-#include "backends/optix/launch_sums.h"
+#include "backends/gpu/launch_sums.h"
 #include "core/aov.h"
 #include "core/geometry.h"
 #include "core/integrator.h"
@@ -91,7 +91,7 @@ __forceinline__ __device__ void set_hit_payload(float t, uint32_t instance, uint
 // (without MIS) the pdf evaluations fold away, which keeps the megakernel small;
 // instruction fetch, not arithmetic, is what stalls warps most in this kernel
 // (ncu: stall_no_inst). For the same reason each exists at three feature levels
-// (kFeatureLevels, launch_params.h). Balance or power is a run-time choice.
+// (gpu::kFeatureLevels, backends/gpu/feature_levels.h). Balance or power is a run-time choice.
 template <Strategy kStrategy, bool kMis, uint32_t kFeatures>
 __forceinline__ __device__ void render_pixels() {
   const LaunchParams& p = P();
@@ -123,7 +123,7 @@ using namespace pn::optix;
 // __raygen__Area_basic, __raygen__Area_mis_basic, __raygen__Area_textured, ..., __raygen__SolidAngle_basic, ...
 #define PN_RAYGEN(e, mis, suffix, level)                                                      \
   extern "C" __global__ void __raygen__##e##suffix##_##level() {                            \
-    render_pixels<Strategy::e, mis, kFeatureLevels[kFeatureLevel_##level]>();               \
+    render_pixels<Strategy::e, mis, gpu::kFeatureLevels[gpu::kFeatureLevel_##level]>();               \
   }
 #define PN_X(e, name, impl, nee, desc)  \
   PN_RAYGEN(e, false, , basic)          \
@@ -161,9 +161,9 @@ __forceinline__ __device__ void guides_pixel() {
   p.guide_normal[pixel] = make_float4(g.normal.x, g.normal.y, g.normal.z, 0.f);
 }
 
-extern "C" __global__ void __raygen__guides_basic() { guides_pixel<kFeatureLevels[kFeatureLevel_basic]>(); }
-extern "C" __global__ void __raygen__guides_textured() { guides_pixel<kFeatureLevels[kFeatureLevel_textured]>(); }
-extern "C" __global__ void __raygen__guides_full() { guides_pixel<kFeatureLevels[kFeatureLevel_full]>(); }
+extern "C" __global__ void __raygen__guides_basic() { guides_pixel<gpu::kFeatureLevels[gpu::kFeatureLevel_basic]>(); }
+extern "C" __global__ void __raygen__guides_textured() { guides_pixel<gpu::kFeatureLevels[gpu::kFeatureLevel_textured]>(); }
+extern "C" __global__ void __raygen__guides_full() { guides_pixel<gpu::kFeatureLevels[gpu::kFeatureLevel_full]>(); }
 
 // The trace stage's optix implementation: one ray of params.trace_rays per
 // thread, the Tracer's own queries, nothing shaded (bench --probe compares it

@@ -15,6 +15,7 @@
 #include "core/reservoir.h"
 #include "backends/trace_stage.h"
 #include "core/scene_view.h"
+#include "backends/gpu/feature_levels.h"
 
 namespace pn {
 namespace optix {
@@ -37,15 +38,6 @@ enum : uint32_t { kMissRadiance = 0, kMissShadow = 1, kNumMissPrograms = 2 };
 // opaque, any-hit disabled by the geometry flags; record 1: masked); both
 // records are the mesh hit group. The spheres' instance starts at kSbtSphere.
 enum : uint32_t { kSbtMesh = 0, kSbtSphere = 2, kNumHitRecords = 3 };
-
-// The raygen programs' feature levels (core/scene_view.h, SceneFeature): every
-// strategy, with and without MIS, is compiled once per level, and the backend runs the smallest level
-// that covers the scene, so that a Lambertian Cornell box does not pay for the
-// GGX, texture and environment code in its megakernel.
-constexpr uint32_t kNumFeatureLevels = 3;
-enum : uint32_t { kFeatureLevel_basic = 0, kFeatureLevel_textured = 1, kFeatureLevel_full = 2 };
-constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {0u, kFeatureShading | kFeatureTextures, kAllFeatures};
-constexpr const char* kFeatureLevelNames[kNumFeatureLevels] = {"basic", "textured", "full"};
 
 // Raygen programs: two per strategy, without and with MIS, in registry order;
 // then the trace stage's and the guides' programs.

@@ -94,7 +94,7 @@ class OptixBackendImpl final : public OptixBackend {
             {"driver", driver_},
             {"cuda_driver_api", std::to_string(drv / 1000) + "." + std::to_string((drv % 1000) / 10)},
             {"optix", optix_version_string(OPTIX_VERSION) + " (ABI " + std::to_string(OPTIX_ABI_VERSION) + ")"},
-            {"kernel", kFeatureLevelNames[pipeline_.feature_level()]},
+            {"kernel", gpu::kFeatureLevelNames[pipeline_.feature_level()]},
             {"spheres", sphere_mode()},
             {"rtcore_version", std::to_string(rtcore_version())},
             {"path_tracer", wavefront_ ? "wavefront" : "megakernel"},

@@ -1,7 +1,7 @@
 // The GPU backend's accumulation kernel.
 #include "backends/optix/kernels.h"
 
-#include "backends/optix/launch_sums.h"
+#include "backends/gpu/launch_sums.h"
 
 namespace pn {
 namespace optix {

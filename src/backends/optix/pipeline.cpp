@@ -75,9 +75,9 @@ void Pipeline::build(OptixDeviceContext context, uint32_t features, SphereMode s
   };
   // The raygen programs of every strategy, without and with MIS, named after
   // the registry's enum, at the smallest feature level that covers the scene.
-  feature_level_ = kNumFeatureLevels - 1;
-  for (uint32_t l = 0; l < kNumFeatureLevels; ++l)
-    if ((features & ~kFeatureLevels[l]) == 0) {
+  feature_level_ = gpu::kNumFeatureLevels - 1;
+  for (uint32_t l = 0; l < gpu::kNumFeatureLevels; ++l)
+    if ((features & ~gpu::kFeatureLevels[l]) == 0) {
       feature_level_ = l;
       break;
     }
@@ -91,14 +91,14 @@ void Pipeline::build(OptixDeviceContext context, uint32_t features, SphereMode s
   for (int i = 0; i < kNumStrategies; ++i)
     for (Mis mis : {Mis::None, Mis::Power}) {
       const std::string entry = std::string("__raygen__") + strategy_enum_names[i] + (mis == Mis::None ? "_" : "_mis_") +
-                                kFeatureLevelNames[feature_level_];
+                                gpu::kFeatureLevelNames[feature_level_];
       d = {};
       d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
       d.raygen.module = module_;
       d.raygen.entryFunctionName = entry.c_str();
       make_group(d, &raygen_[raygen_index(Strategy(i), mis)]);
     }
-  const std::string guides = std::string("__raygen__guides_") + kFeatureLevelNames[feature_level_];
+  const std::string guides = std::string("__raygen__guides_") + gpu::kFeatureLevelNames[feature_level_];
   for (auto [index, entry] : {std::pair<uint32_t, const char*>{kRaygenTraceClosest, "__raygen__trace_closest"},
                               {kRaygenTraceShadow, "__raygen__trace_shadow"},
                               {kRaygenGuides, guides.c_str()}}) {

@@ -28,7 +28,7 @@ class Pipeline {
              const SceneSize& size, SceneBuildStats& stats);
   void release();
   OptixPipeline get() const { return pipeline_; }
-  uint32_t feature_level() const { return feature_level_; }  // index into kFeatureLevels
+  uint32_t feature_level() const { return feature_level_; }  // index into gpu::kFeatureLevels
   // The shader binding table whose raygen record is program `raygen`
   // (raygen_index(strategy, mis), or kRaygenTraceClosest, ...).
   OptixShaderBindingTable sbt(uint32_t raygen) const;
@@ -38,7 +38,7 @@ class Pipeline {
   void build_sbt(const SceneSize& size);
 
   OptixDeviceContext context_ = nullptr;
-  uint32_t feature_level_ = kNumFeatureLevels - 1;
+  uint32_t feature_level_ = gpu::kNumFeatureLevels - 1;
   OptixModule module_ = nullptr, sphere_is_module_ = nullptr;
   std::vector<OptixProgramGroup> raygen_;  // by raygen_index(strategy, mis), then kRaygenTraceClosest, ...
   OptixProgramGroup miss_[kNumMissPrograms] = {}, hit_[kNumHitGroups] = {};

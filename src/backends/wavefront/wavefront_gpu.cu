@@ -12,8 +12,8 @@
 
 #include "backends/cuda/bvh_build.h"
 #include "backends/cuda/trace_kernels.h"
-#include "backends/optix/launch_params.h"
-#include "backends/optix/launch_sums.h"
+#include "backends/gpu/feature_levels.h"
+#include "backends/gpu/launch_sums.h"
 #include "backends/probe_rays.h"
 #include "backends/wavefront/wavefront_shadow.h"
 
@@ -152,7 +152,7 @@ __global__ void __launch_bounds__(kBlock, 2) shade_kernel(int cur) {
   const IntegratorSettings s = shade_settings<kStrategy, kMis>(p.integrator);
   const uint32_t n = *p.view.ray[cur].count;
   for (uint32_t j = first_index(); j < n; j += stride())
-    shade<optix::kFeatureLevels[kLevel]>(j, p.view, cur, p.scene, s);
+    shade<gpu::kFeatureLevels[kLevel]>(j, p.view, cur, p.scene, s);
 }
 
 // Which shading kernel a configuration takes: its strategy and MIS class where lights are chosen simply, else any.
@@ -520,14 +520,14 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, const ShadeKer
       }
       begin_bounce_kernel<<<1, 1, 0, stream>>>(cur ^ 1);
       switch (feature_level) {
-        case optix::kFeatureLevel_basic:
-          launch_shade<optix::kFeatureLevel_basic>(shade, grid, stream, cur);
+        case gpu::kFeatureLevel_basic:
+          launch_shade<gpu::kFeatureLevel_basic>(shade, grid, stream, cur);
           break;
-        case optix::kFeatureLevel_textured:
-          launch_shade<optix::kFeatureLevel_textured>(shade, grid, stream, cur);
+        case gpu::kFeatureLevel_textured:
+          launch_shade<gpu::kFeatureLevel_textured>(shade, grid, stream, cur);
           break;
         default:
-          launch_shade<optix::kFeatureLevel_full>(shade, grid, stream, cur);
+          launch_shade<gpu::kFeatureLevel_full>(shade, grid, stream, cur);
           break;
       }
       check(cudaGetLastError(), "the shading kernels");

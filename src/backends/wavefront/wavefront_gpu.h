@@ -10,7 +10,7 @@
 #include <memory>
 #include <string>
 
-#include "backends/optix/device_film.h"
+#include "backends/gpu/device_film.h"
 #include "backends/trace_stage.h"
 #include "backends/wavefront/wavefront.h"
 #include "render/backend.h"
@@ -102,7 +102,7 @@ class WavefrontGpu {
   // in w, sum_sq: their squares in xyz and the non-finite samples in w), queued on `stream` (a cudaStream_t).
   // Where one wave holds them all and `film` is given, they go into the film instead, as launch_accumulate would
   // add the launch sums (the same doubles; no launch sums written), and it returns true.
-  // feature_level indexes optix::kFeatureLevels (the smallest level covering the scene, as the megakernel's).
+  // feature_level indexes gpu::kFeatureLevels (the smallest level covering the scene, as the megakernel's).
   // The graph of one wave is recorded at the first call and again where max_depth or the level changes.
   bool render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t first_sample,
               uint32_t spp, void* sum, void* sum_sq, const DeviceFilm* film, void* stream);

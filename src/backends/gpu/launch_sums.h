@@ -9,7 +9,7 @@
 
 #include <cuda_runtime.h>
 
-#include "backends/optix/device_film.h"
+#include "backends/gpu/device_film.h"
 #include "core/sample_sums.h"
 
 namespace pn {

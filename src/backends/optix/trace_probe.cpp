@@ -1,4 +1,4 @@
-#include "backends/cuda/trace_probe.h"
+#include "backends/optix/trace_probe.h"
 
 #include <algorithm>
 #include <chrono>
