@@ -162,7 +162,9 @@ Vec3 sphere_light_radiance(Vec3 power, float radius) {
 }
 
 void set_sphere_light(Scene& s, size_t light, Vec3 center, float radius, Vec3 power) {
-  auto fail = [&](const std::string& msg) { throw SceneError(s.source + ": light " + std::to_string(light) + ": " + msg); };
+  auto fail = [&](const std::string& msg) {
+    throw SceneError(s.source + ": light " + std::to_string(light) + ": " + msg);
+  };
   if (light >= s.lights.size() || s.lights[light].type != LightType::Sphere) fail("is not a sphere light");
   // The scene format's limits (scene/json_node.h: coordinates, parse_light: radius and power).
   const float kMaxCoordinate = 1e7f, kMaxEmission = 1e9f;

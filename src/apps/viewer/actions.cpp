@@ -26,20 +26,22 @@ namespace pn::viewer {
 std::string Viewer::screenshot_stem() const {
   char buf[256];
   std::string stem = scene_name_ + "_";
-  if (scheduler_.sides().size() == 1) {
-    stem += std::string(strategy_name(scheduler_.sides()[0].strategy)) + "_" + std::to_string(scheduler_.sides()[0].image->samples()) + "spp";
+  const std::vector<Side>& sides = scheduler_.sides();
+  const ImageSettings& applied = scheduler_.applied();
+  if (sides.size() == 1) {
+    stem += std::string(strategy_name(sides[0].strategy)) + "_" + std::to_string(sides[0].image->samples()) + "spp";
   } else {
-    stem += std::string(strategy_name(scheduler_.sides()[0].strategy)) + "-" + std::to_string(scheduler_.sides()[0].image->samples()) +
-            "spp_vs_" + strategy_name(scheduler_.sides()[1].strategy) + "-" + std::to_string(scheduler_.sides()[1].image->samples()) + "spp";
-    stem += scheduler_.applied().equal_time ? "_equal-time" : "_equal-spp";
+    stem += std::string(strategy_name(sides[0].strategy)) + "-" + std::to_string(sides[0].image->samples()) +
+            "spp_vs_" + strategy_name(sides[1].strategy) + "-" + std::to_string(sides[1].image->samples()) + "spp";
+    stem += applied.equal_time ? "_equal-time" : "_equal-spp";
   }
-  std::snprintf(buf, sizeof buf, "_d%d", scheduler_.applied().integrator.max_depth);
+  std::snprintf(buf, sizeof buf, "_d%d", applied.integrator.max_depth);
   stem += buf;
   if (light_applied_.sphere) {
     std::snprintf(buf, sizeof buf, "_r%g", double(light_applied_.radius));
     stem += buf;
   }
-  std::snprintf(buf, sizeof buf, "_%dx%d", scheduler_.applied().width, scheduler_.applied().height);
+  std::snprintf(buf, sizeof buf, "_%dx%d", applied.width, applied.height);
   stem += buf;
   if (exposure_ != 0.f) {
     std::snprintf(buf, sizeof buf, "_e%+g", double(exposure_));
@@ -49,7 +51,8 @@ std::string Viewer::screenshot_stem() const {
 }
 
 void Viewer::screenshot(const std::string& path) {
-  write_image(path, scheduler_.applied().width, scheduler_.applied().height, scheduler_.composed_mean(divider_), exposure_);
+  const ImageSettings& applied = scheduler_.applied();
+  write_image(path, applied.width, applied.height, scheduler_.composed_mean(divider_), exposure_);
   std::fprintf(stderr, "wrote %s\n", path.c_str());
 }
 

@@ -94,7 +94,8 @@ HeadlessGl::HeadlessGl() : egl_(std::make_unique<Egl>()) {
   e.DestroySurface = reinterpret_cast<PFNEGLDESTROYSURFACEPROC>(sym("eglDestroySurface"));
 
   // The platform: an NVIDIA GPU (a device offering EGL_NV_device_cuda), else
-  // Mesa's surfaceless platform, else any device EGL enumerates.
+  // the surfaceless platform (Mesa's; NVIDIA's EGL offers it too, and serves it
+  // where its device platform is not enumerated), else any device EGL enumerates.
   const char* client = e.QueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
   e.GetPlatformDisplay = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(g_get_proc("eglGetPlatformDisplayEXT"));
   if (!e.GetPlatformDisplay || !has_extension(client, "EGL_EXT_platform_base"))
@@ -122,7 +123,8 @@ HeadlessGl::HeadlessGl() : egl_(std::make_unique<Egl>()) {
     if (has_extension(e.QueryDeviceString(devices[i], EGL_EXTENSIONS), "EGL_NV_device_cuda"))
       try_display(EGL_PLATFORM_DEVICE_EXT, devices[i], "device platform (NVIDIA GPU)");
   if (e.display == EGL_NO_DISPLAY && has_extension(client, "EGL_MESA_platform_surfaceless"))
-    try_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, "Mesa's surfaceless platform");
+    try_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY,
+                "surfaceless platform (EGL_MESA_platform_surfaceless)");
   for (size_t i = 0; i < devices.size() && e.display == EGL_NO_DISPLAY; ++i)
     try_display(EGL_PLATFORM_DEVICE_EXT, devices[i], "device platform");
   if (e.display == EGL_NO_DISPLAY)

@@ -37,7 +37,6 @@ ImageSettings Viewer::wanted() const {
   return s;
 }
 
-
 // Brings the images in line with the controls; restarts them when the image changes.
 void Viewer::sync() {
   ImageSettings want = wanted();

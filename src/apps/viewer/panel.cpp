@@ -52,7 +52,8 @@ void Viewer::draw_panel() {
   }
   ImGui::Text("%s", scene_->source.c_str());
   ImGui::TextWrapped("%s: %s", backend_->name().c_str(), backend_->device_name().c_str());
-  ImGui::Text("image %dx%d, display: %s", scheduler_.applied().width, scheduler_.applied().height, display_path_name(display_path_.path));
+  ImGui::Text("image %dx%d, display: %s", scheduler_.applied().width, scheduler_.applied().height,
+              display_path_name(display_path_.path));
   if (display_path_.path != DisplayPath::Interop && backend_->name() == "optix")
     ImGui::TextWrapped("%s", display_path_.note.c_str());  // why not interop
 
