@@ -154,9 +154,9 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
       ->check(render_setting("restir.temporal_cap"));
 }
 
-static void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* traversal) {
+static void add_wavefront_options(CLI::App* sub, bool* wavefront, Traversal* traversal) {
   *wavefront = true;
-  *traversal = "auto";
+  *traversal = Traversal::Auto;
   auto* wf = sub->add_flag("--wavefront", *wavefront,
                            "GPU: the wavefront path tracer (kernels per stage over a pool of paths, restir's frame "
                            "passes included), the default. The cpu backend ignores it");
@@ -165,11 +165,14 @@ static void add_wavefront_options(CLI::App* sub, bool* wavefront, std::string* t
          "GPU: the megakernel (the whole path loop in one OptiX raygen program) instead of the wavefront; "
          "restir there without spatial or temporal reuse only")
       ->excludes(wf);
-  sub->add_option("--traversal", *traversal,
-                  "GPU wavefront's trace stage: optix (trace-only OptiX launches), cuda (penumbra's BVH2 "
-                  "traversal) or auto (optix where the GPU has RT cores, else cuda; one line says which)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"auto", "optix", "cuda"}));
+  std::vector<std::string> names;
+  for (int i = 0; i < kNumTraversals; ++i) names.push_back(traversal_name(Traversal(i)));
+  sub->add_option_function<std::string>(
+         "--traversal", [traversal](const std::string& name) { find_traversal(name, traversal); },
+         "GPU wavefront's trace stage: optix (trace-only OptiX launches), cuda (penumbra's BVH2 traversal) or auto "
+         "(optix where the GPU has RT cores, else cuda; one line says which)")
+      ->default_str(traversal_name(Traversal::Auto))
+      ->check(CLI::IsMember(names));
 }
 
 static void add_tune_option(CLI::App* sub, GpuTuning* tuning) {

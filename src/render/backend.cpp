@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/enum_names.h"
+
 namespace pn {
 
 std::string describe_nonfinite(const RenderStats& stats) {
@@ -31,6 +33,21 @@ void note_nonfinite_pixel(RenderStats& stats, int x, int y, int width) {
 GuideImages Backend::render_guides(const FrameSpec&, uint32_t) {
   throw std::logic_error("the " + name() + " backend renders no denoiser guides");
 }
+
+const char* traversal_name(Traversal t) {
+  switch (t) {
+    case Traversal::Auto: return "auto";
+    case Traversal::Optix: return "optix";
+    case Traversal::Cuda: return "cuda";
+  }
+  return "?";
+}
+
+bool find_traversal(const std::string& name, Traversal* out) {
+  return find_enum(name, kNumTraversals, traversal_name, out);
+}
+
+std::string traversal_names() { return enum_names(kNumTraversals, traversal_name); }
 
 FrameSpec frame_spec(const Scene& scene) {
   FrameSpec f;

@@ -135,6 +135,14 @@ class Backend {
   virtual bool update_lights() { return false; }
 };
 
+// The wavefront's trace stage (--traversal): trace-only OptiX launches, penumbra's cuda traversal
+// (backends/cuda), or auto: OptiX where the GPU has RT cores (OPTIX_DEVICE_PROPERTY_RTCORE_VERSION > 0), else cuda.
+enum class Traversal : int { Auto = 0, Optix = 1, Cuda = 2 };
+constexpr int kNumTraversals = 3;
+const char* traversal_name(Traversal t);  // "auto", "optix", "cuda"
+bool find_traversal(const std::string& name, Traversal* out);
+std::string traversal_names();  // "auto, optix, cuda"
+
 struct BackendOptions {
   int threads = 0;  // CPU: 0 = all hardware threads
   int spp_per_launch = 0;  // GPU: samples per pixel per launch; 0 = automatic
@@ -145,10 +153,9 @@ struct BackendOptions {
   int device = 0;  // GPU: the CUDA device of a single-GPU backend (make_optix_backend)
   // GPU: the wavefront path tracer (backends/wavefront; the default: on the H200 1.8x the megakernel's speed with
   // the cuda trace stage, and the same images, scripts/wavefront_check.sh) or the megakernel (--megakernel), and
-  // the wavefront's trace stage (--traversal): "optix" (trace-only OptiX launches), "cuda" (backends/cuda) or
-  // "auto" (OptiX where the GPU has RT cores, OPTIX_DEVICE_PROPERTY_RTCORE_VERSION > 0, else cuda).
+  // the wavefront's trace stage (--traversal).
   bool wavefront = true;
-  std::string traversal = "auto";
+  Traversal traversal = Traversal::Auto;
   // GPU: the tuning knobs (render/gpu_tuning.h: --tune KEY=VALUE); the defaults are the measured choices.
   GpuTuning tuning{};
 };

@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -188,7 +189,9 @@ struct Verdict {
 Film render_scene(const Scene& s) {
   std::string note;
   BackendOptions options;
-  options.traversal = env_or("PENUMBRA_TEST_TRAVERSAL", "auto");
+  const std::string traversal = env_or("PENUMBRA_TEST_TRAVERSAL", "auto");
+  if (!find_traversal(traversal, &options.traversal))
+    throw std::invalid_argument("PENUMBRA_TEST_TRAVERSAL: " + traversal + " is none of " + traversal_names());
   options.wavefront = env_or("PENUMBRA_TEST_MEGAKERNEL", "0") == std::string("0");
   auto backend = make_backend(env_or("PENUMBRA_TEST_BACKEND", "cpu"), s, options, &note);
   Film film(s.render.width, s.render.height);

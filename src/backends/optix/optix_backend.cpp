@@ -339,17 +339,15 @@ class OptixBackendImpl final : public OptixBackend {
   };
 
   // --wavefront: the path pool and its trace stage (--traversal; auto: OptiX where the GPU has RT cores).
-  void build_wavefront(const std::string& traversal) {
+  void build_wavefront(Traversal traversal) {
     const unsigned rt = rtcore_version();
-    std::string choice = traversal;
-    if (traversal == "auto") choice = rt > 0 ? "optix" : "cuda";
-    else if (traversal != "optix" && traversal != "cuda")
-      throw std::runtime_error("--traversal must be auto, optix or cuda, not '" + traversal + "'");
+    Traversal choice = traversal;
+    if (traversal == Traversal::Auto) choice = rt > 0 ? Traversal::Optix : Traversal::Cuda;
     std::fprintf(stderr, "wavefront on GPU %d: traversal %s%s (OPTIX_DEVICE_PROPERTY_RTCORE_VERSION %u: %s)\n",
-                 device_, choice.c_str(), traversal == "auto" ? " (auto)" : "", rt,
+                 device_, traversal_name(choice), traversal == Traversal::Auto ? " (auto)" : "", rt,
                  rt > 0 ? "RT cores" : "no RT cores");
     std::unique_ptr<WavefrontTraceStage> stage;
-    if (choice == "optix") stage = std::make_unique<OptixTraceStage>(*this);
+    if (choice == Traversal::Optix) stage = std::make_unique<OptixTraceStage>(*this);
     else stage = make_cuda_trace_stage(scene_, base_params_.scene, tuning_);
     wavefront_ = std::make_unique<WavefrontGpu>(std::move(stage), tuning_, props_.multiProcessorCount);
     std::fprintf(stderr, "wavefront on GPU %d: shadow rays in %s; the bounces' rays in %s\n", device_,
