@@ -3,7 +3,7 @@
 // wavefront GPU's order: every closest hit, then every shadow query, consumed
 // after the next closest hits and in reverse path order) renders the image the
 // depth-first one renders, bit for bit, on built-in scenes and techniques.
-// So do the wavefront path tracer's stages (backends/wavefront/wavefront.h),
+// So do the wavefront path tracer's stages (backends/wavefront/wavefront.h; restir's passes: restir_passes.h),
 // run by the CPU backend's Wavefront schedule (loops over a pool, Embree as the
 // trace stage): with pools smaller than the frame (several waves a call, a
 // pixel's samples in different waves), pools holding several samples of a
@@ -20,7 +20,7 @@
 #include "backends/cpu/cpu_backend.h"
 #include "backends/cuda/bvh_build.h"
 #include "backends/cuda/bvh_traverse.h"
-#include "backends/wavefront/wavefront.h"
+#include "backends/wavefront/restir_passes.h"
 #include "render/backend.h"
 #include "scene/scene.h"
 

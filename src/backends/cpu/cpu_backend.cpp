@@ -27,7 +27,7 @@
 #include "core/integrator.h"
 #include "core/restir.h"
 #include "core/sample_sums.h"
-#include "backends/wavefront/wavefront.h"
+#include "backends/wavefront/restir_passes.h"
 
 namespace pn {
 namespace {
@@ -498,7 +498,7 @@ class CpuBackend final : public Backend {
     w.restir = RestirFrame();
   }
 
-  // A frame pass of restir through the trace stage (wavefront.h's restir_frame_pass): record(i, chunk) and
+  // A frame pass of restir through the trace stage (restir_passes.h's restir_frame_pass): record(i, chunk) and
   // replay(i, chunk) for each pixel i of each chunk, on all cores.
   template <class Record, class Replay>
   void run_restir_pass(HostWavefront& hw, uint32_t pixels, uint32_t max_rays, Record&& record, Replay&& replay) {

@@ -15,6 +15,7 @@
 #include "backends/gpu/feature_levels.h"
 #include "backends/gpu/launch_sums.h"
 #include "backends/probe_rays.h"
+#include "backends/wavefront/restir_passes.h"
 #include "backends/wavefront/wavefront_shadow.h"
 
 namespace pn {
