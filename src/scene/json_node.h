@@ -21,6 +21,8 @@ using json = nlohmann::json;
 
 // Coordinates beyond this are rejected (absurd values would overflow later).
 constexpr float kMaxCoordinate = 1e7f;
+// A light's radiance or power, per RGB channel, at most this.
+constexpr float kMaxEmission = 1e9f;
 
 // A JSON value together with where it lives, for error messages.
 struct Node {

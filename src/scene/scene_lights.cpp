@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "scene/json_node.h"
 #include "scene/scene.h"
 
 namespace pn {
@@ -166,8 +167,9 @@ void set_sphere_light(Scene& s, size_t light, Vec3 center, float radius, Vec3 po
     throw SceneError(s.source + ": light " + std::to_string(light) + ": " + msg);
   };
   if (light >= s.lights.size() || s.lights[light].type != LightType::Sphere) fail("is not a sphere light");
-  // The scene format's limits (scene/json_node.h: coordinates, parse_light: radius and power).
-  const float kMaxCoordinate = 1e7f, kMaxEmission = 1e9f;
+  // The scene format's limits (scene/json_node.h).
+  using scene_detail::kMaxCoordinate;
+  using scene_detail::kMaxEmission;
   for (int i = 0; i < 3; ++i) {
     if (!(std::abs(center[i]) <= kMaxCoordinate)) fail("centre out of range [-1e7, 1e7]");
     if (!(power[i] >= 0.f && power[i] <= kMaxEmission)) fail("power out of range [0, 1e9]");

@@ -33,6 +33,7 @@ constexpr int kMaxResolution = 16384;
 constexpr int kMaxSpp = 1 << 24;
 constexpr int kMaxDepth = 1024;
 using scene_detail::kMaxCoordinate;
+using scene_detail::kMaxEmission;
 
 using scene_detail::Node;
 using scene_detail::add_instance;
@@ -420,7 +421,6 @@ void parse_light(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
   std::string type = n.at("type").string();
   bool has_l = n.has("radiance"), has_p = n.has("power");
   if (has_l == has_p && type != "scatter") n.fail("give exactly one of 'radiance' or 'power'");
-  const float kMaxEmission = 1e9f;
   uint32_t black = 0;  // material 0 is the implicit black "light" material
   int32_t index = int32_t(s.lights.size());
   uint32_t material = n.has("material") ? material_ref(n.at("material"), mats) : black;
@@ -430,7 +430,8 @@ void parse_light(const Node& n, Scene& s, const std::map<std::string, uint32_t>&
     n.require("radius");
     Vec3 c = n.at("center").vec3();
     float r = n.at("radius").positive(kMaxCoordinate);
-    Vec3 L = has_l ? n.at("radiance").color(kMaxEmission) : sphere_light_radiance(n.at("power").color(kMaxEmission), r);
+    Vec3 L = has_l ? n.at("radiance").color(kMaxEmission)
+                   : sphere_light_radiance(n.at("power").color(kMaxEmission), r);
     if (!is_finite(L)) n.at("radius").fail("too small for the given power (radiance overflows)");
     s.lights.push_back(Light::sphere(c, r, L));
     s.spheres.push_back(Sphere{c, r, material, index});
