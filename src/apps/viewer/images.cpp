@@ -11,7 +11,6 @@
 
 #include "apps/options.h"
 #include "apps/viewer/viewer_state.h"
-#include "backends/make_backend.h"
 #include "io/image.h"
 
 namespace pn::viewer {
@@ -60,13 +59,7 @@ void Viewer::apply_light(const LightEdit& e) {
   const auto t0 = Clock::now();
   set_sphere_light(*scene_, 0, e.center, e.radius, e.power);  // throws, the scene unchanged, on a bad value
   const bool in_place = backend_->update_lights();
-  if (!in_place) {
-    scheduler_.clear();
-    backend_.reset();
-    std::string note;
-    backend_ = make_backend(opt_.backend, *scene_, opt_.backend_options, &note);
-    ++backend_builds_;
-  }
+  if (!in_place) make_backend_for_scene();
   light_applied_ = e;
   std::fprintf(stderr, "view: light changed in %.2f ms (%s)\n", ms_since(t0),
                in_place ? (backend_->name() + " backend updated in place").c_str()

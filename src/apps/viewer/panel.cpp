@@ -176,21 +176,18 @@ void Viewer::draw_panel() {
       act("fly_speed", speed, kPanel);
     if (ImGui::Button("reset (R)")) act("reset", true, kPanel);
     ImGui::InputText("file", &camera_file_);
-    if (ImGui::Button("save camera")) {
+    // A file that cannot be written or read: its message in the panel.
+    auto file_button = [this](const char* label, const char* action) {
+      if (!ImGui::Button(label)) return;
       try {
-        act("save_camera", camera_file_, kPanel);
+        act(action, camera_file_, kPanel);
       } catch (const std::exception& e) {
         status_ = e.what();
       }
-    }
+    };
+    file_button("save camera", "save_camera");
     ImGui::SameLine();
-    if (ImGui::Button("load camera")) {
-      try {
-        act("load_camera", camera_file_, kPanel);
-      } catch (const std::exception& e) {
-        status_ = e.what();
-      }
-    }
+    file_button("load camera", "load_camera");
   }
   ImGui::Separator();
   if (ImGui::Button("screenshot (P)")) act("screenshot_button", true, kPanel);

@@ -8,14 +8,14 @@
 namespace pn::viewer {
 
 double RenderScheduler::seconds_since_restart() const {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - restart_time_).count();
+  return ms_since(restart_time_) * 1e-3;
 }
 
 void RenderScheduler::restart(const ImageSettings& s, const FrameSpec& base, bool device_pixels,
                               const std::function<std::unique_ptr<ProgressiveImage>()>& make_image) {
   applied_ = s;
   started_ = true;
-  restart_time_ = std::chrono::steady_clock::now();
+  restart_time_ = Clock::now();
   std::vector<std::unique_ptr<ProgressiveImage>> spare;
   for (Side& old : sides_) spare.push_back(std::move(old.image));
   auto make_side = [&](Strategy strategy, uint32_t seed) {
@@ -49,10 +49,7 @@ void RenderScheduler::clear() {
 
 RenderScheduler::Frame RenderScheduler::render(uint32_t spp, const Backend& backend) {
   Frame out;
-  const auto t0 = std::chrono::steady_clock::now();
-  auto ms_since = [](std::chrono::steady_clock::time_point t) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
-  };
+  const auto t0 = Clock::now();
   std::vector<uint32_t> n(sides_.size(), spp);
   const bool measured =
       std::all_of(sides_.begin(), sides_.end(), [](const Side& s) { return s.image->samples() > 0; });
@@ -71,7 +68,7 @@ RenderScheduler::Frame RenderScheduler::render(uint32_t spp, const Backend& back
       n[i] = cost[i] > 0 ? uint32_t(std::clamp(std::lround((target - tpp[i]) / cost[i]), 0l, 64l * spp)) : spp;
   }
   for (size_t i = 0; i < sides_.size(); ++i) {
-    const auto ts = std::chrono::steady_clock::now();
+    const auto ts = Clock::now();
     try {
       sides_[i].image->add_samples(n[i]);
     } catch (const std::invalid_argument& e) {  // settings this backend cannot render (restir's reuse on --megakernel)

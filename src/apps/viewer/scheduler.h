@@ -17,6 +17,11 @@
 
 namespace pn::viewer {
 
+using Clock = std::chrono::steady_clock;
+inline double ms_since(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
 inline bool same(Vec3 a, Vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 inline bool same(const CameraDesc& a, const CameraDesc& b) {
   return same(a.eye, b.eye) && same(a.target, b.target) && same(a.up, b.up) && a.fov == b.fov;
@@ -120,7 +125,7 @@ class RenderScheduler {
   std::vector<Side> sides_;
   ImageSettings applied_;
   bool started_ = false;
-  std::chrono::steady_clock::time_point restart_time_;
+  Clock::time_point restart_time_;
 };
 
 }  // namespace pn::viewer

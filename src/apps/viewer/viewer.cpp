@@ -99,6 +99,12 @@ Viewer::Viewer(const ViewerOptions& o) : opt_(o) {
 void Viewer::load() {
   scene_ = std::make_unique<Scene>(load_scene(opt_.scene, opt_.sets));
   ++scene_loads_;
+  make_backend_for_scene();
+}
+
+void Viewer::make_backend_for_scene() {
+  scheduler_.clear();
+  backend_.reset();  // the old one's device memory first
   backend_ = make_backend(opt_.backend, *scene_, opt_.backend_options, &backend_note_);
   ++backend_builds_;
 }

@@ -29,8 +29,6 @@ struct GLFWwindow;
 
 namespace pn::viewer {
 
-using Clock = std::chrono::steady_clock;
-inline double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 inline const char* const kRenderHint = "use `penumbra render` to render to a file instead";
 
@@ -44,6 +42,7 @@ class Viewer {
  private:
   // Setup.
   void load();
+  void make_backend_for_scene();  // a backend for *scene_ (the images go first: they refer to the old one)
   void apply_light(const LightEdit& e);
   void open_window();
   void open_glfw_window();
