@@ -118,17 +118,23 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         w("- Time: GPU time (CUDA events) on the GPU, wall time on the CPU. **Efficiency** = 1 / (MSE x time) at the "
           "largest spp, relative to `power` with the same strategy (> 1: better at equal time); relMSE-efficiency the "
           "same with relMSE (pbrt's, (x - ref)^2 / (ref^2 + 0.01)). Both **without the pixels that see a lamp "
-          "directly** (their pixel-coverage noise is the same for every method and far above the rest).\n")
+          "directly** (their pixel-coverage noise is the same for every method and far above the rest), and, in "
+          "the last column, over all pixels (docs/metrics.md).\n")
     for scene, runs in head.items():
         w(f"## {scene}: efficiency relative to `power`\n")
-        w("| selection | " + " | ".join(f"`{st}`" for st in MANY_STRATEGIES) + " | relMSE-efficiency (solid-angle) | ms/spp (solid-angle) |")
-        w("| --- |" + " ---: |" * (len(MANY_STRATEGIES) + 2))
+        lp = runs["power"].get("light_pixels")
+        share = f" ({100 * lp / (runs['power']['width'] * runs['power']['height']):.1f}% of the image)" \
+            if isinstance(lp, (int, float)) else ""
+        w(f"No-light pixels; the last column counts every pixel, the lamps' own{share} too.\n")
+        w("| selection | " + " | ".join(f"`{st}`" for st in MANY_STRATEGIES) +
+          " | relMSE-efficiency (solid-angle) | ms/spp (solid-angle) | all pixels (solid-angle) |")
+        w("| --- |" + " ---: |" * (len(MANY_STRATEGIES) + 3))
         sels = list(runs)  # the selections that ran (many_group)
         for sel in sels:
             rel = many_relmse_efficiency(runs[sel], "solid-angle") / many_relmse_efficiency(runs["power"], "solid-angle")
             ms = runs[sel]["strategies"][many_technique("solid-angle")]["ms_per_spp"]
             w(f"| `{sel}` | " + " | ".join(fmt(many_efficiency(runs, sel, st)) for st in MANY_STRATEGIES) +
-              f" | {fmt(rel)} | {ms:.3f} |")
+              f" | {fmt(rel)} | {ms:.3f} | {fmt(many_efficiency(runs, sel, 'solid-angle', key='efficiency'))} |")
         missing = [sel for sel in MANY_SELECTIONS if sel not in runs]
         if missing:
             w("\nNot in this report (no run of it here): " + ", ".join(f"`{sel}`" for sel in missing) + ".")
