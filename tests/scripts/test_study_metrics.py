@@ -88,12 +88,13 @@ def test_fit_time_to():
     assert metrics.fit_time_to(LAB, "missing", 0.1) == math.inf
 
 
-def test_lab_threshold_is_the_median_last_rmse():
-    # At 8 spp: area 0.8 / sqrt(8), solid-angle 0.4 / sqrt(8), bsdf 1.6 / sqrt(8): the median is area's.
+def test_lab_threshold_is_the_largest_last_rmse_of_light_sampling():
+    # At 8 spp: area 0.8 / sqrt(8), solid-angle 0.4 / sqrt(8), bsdf 1.6 / sqrt(8) (left out): area's.
     assert metrics.lab_threshold(LAB) == pytest.approx(0.8 / math.sqrt(8))
-    # With an even count, the upper of the two middle values.
-    four = dict(strategies={**LAB["strategies"], "x": technique(1.2, 1.0)})
-    assert metrics.lab_threshold(four) == pytest.approx(1.2 / math.sqrt(8))
+    worse = dict(strategies={**LAB["strategies"], "x": technique(1.2, 1.0)})
+    assert metrics.lab_threshold(worse) == pytest.approx(1.2 / math.sqrt(8))
+    only_bsdf = dict(strategies=dict(bsdf=technique(1.6, 1.0)))
+    assert metrics.lab_threshold(only_bsdf) == pytest.approx(1.6 / math.sqrt(8))
 
 
 def test_lab_speedups_are_relative_to_area():
@@ -102,13 +103,26 @@ def test_lab_speedups_are_relative_to_area():
     assert sp == pytest.approx({"area": 1.0, "solid-angle": 16 / 6, "bsdf": 16 / 32})
     # Without the lamp pixels (c halved), to the same target: area 2 spp = 4 ms, solid-angle 0.5 spp = 1.5 ms.
     assert metrics.lab_speedups(LAB, "fit_rmse_nolight")["solid-angle"] == pytest.approx(4 / 1.5)
-    # With slopes that differ, the target matters. "fast": RMSE 0.4 / spp at 4 ms. At 8 spp the median RMSE is
-    # solid-angle's, 0.4 / sqrt(8): area reaches it at 32 spp = 64 ms, fast at sqrt(8) spp = 4 sqrt(8) ms.
+    # With slopes that differ, the target matters. "fast": RMSE 0.4 / spp at 4 ms. At 8 spp the largest RMSE is
+    # area's, 0.8 / sqrt(8) (8 spp = 16 ms): fast reaches it at sqrt(8) / 2 spp = 2 sqrt(8) ms, solid-angle at 2
+    # spp = 6 ms.
     mixed = dict(strategies=dict(area=technique(0.8, 2.0), fast=technique(0.4, 4.0, slope=-1.0),
                                  **{"solid-angle": technique(0.4, 3.0)}))
-    assert metrics.lab_threshold(mixed) == pytest.approx(0.4 / math.sqrt(8))
-    assert metrics.lab_speedups(mixed) == pytest.approx({"area": 1.0, "solid-angle": 64 / 24,
-                                                       "fast": 64 / (4 * math.sqrt(8))})
+    assert metrics.lab_threshold(mixed) == pytest.approx(0.8 / math.sqrt(8))
+    assert metrics.lab_speedups(mixed) == pytest.approx({"area": 1.0, "solid-angle": 16 / 6,
+                                                       "fast": 16 / (2 * math.sqrt(8))})
+
+
+def test_fit_extrapolated_when_the_target_is_outside_the_measured_rmse():
+    # bsdf's RMSE runs from 1.6 (1 spp) to 1.6 / sqrt(8) = 0.566: the target 0.283 is beyond its points.
+    thr = metrics.lab_threshold(LAB)
+    assert not metrics.fit_extrapolated(LAB, "area", thr)  # its own last point
+    assert not metrics.fit_extrapolated(LAB, "solid-angle", thr)  # 0.4 .. 0.141 holds 0.283
+    assert metrics.fit_extrapolated(LAB, "bsdf", thr)
+    assert metrics.fit_extrapolated(LAB, "area", 0.1)  # area's smallest RMSE is 0.283
+    # No-light RMSEs (half): area's run from 0.4 to 0.141.
+    assert not metrics.fit_extrapolated(LAB, "area", 0.2, "fit_rmse_nolight")
+    assert metrics.fit_extrapolated(LAB, "missing", thr)
 
 
 def test_lab_efficiency_is_relative_to_area():
