@@ -36,6 +36,11 @@ class MultiBackend final : public Backend {
   // Launches of every device (in device order), rays summed, and `devices`:
   // each device's samples and times.
   RenderStats last_render_stats() const override { return stats_; }
+  bool update_lights() override {  // every device's, or false (the caller then makes a new backend)
+    for (auto& d : devices_)
+      if (!d->update_lights()) return false;
+    return true;
+  }
   std::vector<std::pair<std::string, std::string>> device_info() const override;
   SceneBuildStats scene_build_stats() const override { return devices_.front()->scene_build_stats(); }
   uint32_t split_granularity(const FrameSpec& frame, uint32_t count) const override {

@@ -4,9 +4,12 @@
 
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "backends/cuda/bvh_build.h"
 #include "backends/make_backend.h"
 #include "render/backend.h"
 #include "scene/scene.h"
@@ -100,6 +103,76 @@ TEST(LightEdit, TheCpuBackendUpdatedInPlaceRendersAsANewOne) {
     EXPECT_EQ(in_place, fresh);   // bit for bit: the same scene, seed and samples
     EXPECT_NE(in_place, before);  // and the edit did change the image
   }
+}
+
+// The GPU backend updated in place (update_lights: the light arrays written over, the spheres' GAS and the IAS
+// built again, the cuda traversal's top level rebuilt) renders bit for bit what a backend made from the edited scene
+// renders, on each path: the wavefront with either trace stage and the megakernel. Skipped without a GPU (CTest's
+// gpu label runs it on one: tests/gpu).
+TEST(LightEdit, TheGpuBackendUpdatedInPlaceRendersAsANewOne) {
+  struct Path {
+    const char* name;
+    bool wavefront;
+    Traversal traversal;
+  };
+  const Path paths[] = {{"wavefront, cuda traversal", true, Traversal::Cuda},
+                        {"wavefront, optix traversal", true, Traversal::Optix},
+                        {"megakernel", false, Traversal::Auto}};
+  for (const Path& path : paths) {
+    BackendOptions options;
+    options.wavefront = path.wavefront;
+    options.traversal = path.traversal;
+    for (const Case& c : kCases) {
+      SCOPED_TRACE(std::string(c.scene) + ", " + path.name);
+      Scene scene = load_scene(c.scene, small(c.selection));
+      std::string note;
+      std::unique_ptr<Backend> backend;
+      try {
+        backend = make_backend("optix", scene, options, &note);
+      } catch (const std::exception& e) {
+        GTEST_SKIP() << "no GPU backend here: " << e.what();
+      }
+      const std::vector<float> before = render(*backend, scene, 4);
+      set_sphere_light(scene, 0, c.edit.center, c.edit.radius, c.edit.power);
+      ASSERT_TRUE(backend->update_lights());
+      const std::vector<float> in_place = render(*backend, scene, 4);
+      auto fresh_backend = make_backend("optix", scene, options, &note);
+      EXPECT_EQ(in_place, render(*fresh_backend, scene, 4));
+      EXPECT_NE(in_place, before);
+    }
+  }
+}
+
+// The cuda traversal's BVH with its top level built again after an edit (rebuild_bvh_top, what the GPU's
+// update_lights does) is the BVH build_bvh makes of the edited scene, array for array: the meshes' trees kept, the
+// spheres and the top level new.
+TEST(LightEdit, TheCudaTraversalsTopLevelRebuiltIsTheEditedScenesBvh) {
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(c.scene);
+    Scene scene = load_scene(c.scene, small(c.selection));
+    BvhHost bvh = build_bvh(scene);
+    const size_t bottom = bvh.bottom_nodes;
+    const std::vector<float> spheres_before = bvh.spheres;
+    set_sphere_light(scene, 0, c.edit.center, c.edit.radius, c.edit.power);
+    rebuild_bvh_top(scene, bvh);
+    const BvhHost fresh = build_bvh(scene);
+    EXPECT_EQ(bvh.bottom_nodes, bottom);
+    ASSERT_EQ(bvh.nodes.size(), fresh.nodes.size());
+    EXPECT_TRUE(same_bytes(bvh.nodes.data(), fresh.nodes.data(), bvh.nodes.size() * sizeof(BvhNode)));
+    ASSERT_EQ(bvh.triangles.size(), fresh.triangles.size());
+    EXPECT_TRUE(same_bytes(bvh.triangles.data(), fresh.triangles.data(), bvh.triangles.size() * sizeof(BvhTriangle)));
+    ASSERT_EQ(bvh.instances.size(), fresh.instances.size());
+    EXPECT_TRUE(same_bytes(bvh.instances.data(), fresh.instances.data(), bvh.instances.size() * sizeof(BvhInstance)));
+    EXPECT_EQ(bvh.items, fresh.items);
+    EXPECT_EQ(bvh.spheres, fresh.spheres);
+    EXPECT_EQ(bvh.root, fresh.root);
+    EXPECT_EQ(bvh.stats.sah_visits_per_ray, fresh.stats.sah_visits_per_ray);
+    EXPECT_NE(bvh.spheres, spheres_before);  // the edit reached the spheres
+  }
+  const Scene scene = load_scene("cornell-sphere");
+  BvhHost other = build_bvh(scene);
+  other.mesh_root.push_back(0);  // as a BVH of a scene with one mesh more
+  EXPECT_THROW(rebuild_bvh_top(scene, other), std::logic_error);
 }
 
 TEST(LightEdit, ValuesOutsideTheFormatsLimitsThrowAndLeaveTheSceneAsItWas) {

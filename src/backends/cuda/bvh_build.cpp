@@ -280,6 +280,9 @@ double sah_visits_per_ray(const BvhHost& b, const std::vector<EdgeProducts>& fac
   return area > 0.0 ? top_areas(b, b.root, faces, mesh, mesh_done) / area : 0.0;
 }
 
+// The top level over `out`'s mesh trees (bottom_nodes, mesh_root, mesh_built, mesh_bounds): instances and spheres.
+void build_top_level(const Scene& scene, BvhHost& out, Builder& builder);
+
 }  // namespace
 
 BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
@@ -334,6 +337,40 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
   }
   out.stats.mean_leaf_size = leaves ? double(out.triangles.size()) / double(leaves) : 0.0;
   out.stats.triangle_references = out.triangles.size();
+  out.bottom_nodes = out.nodes.size();
+  out.mesh_root = std::move(mesh_root);
+  out.mesh_built = std::move(mesh_built);
+  out.mesh_bounds.resize(scene.meshes.size());
+  for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+    const RTCBounds& b = mesh_bounds[mi];
+    out.mesh_bounds[mi] = {Vec3(b.lower_x, b.lower_y, b.lower_z), Vec3(b.upper_x, b.upper_y, b.upper_z)};
+  }
+  build_top_level(scene, out, builder);
+  out.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+void rebuild_bvh_top(const Scene& scene, BvhHost& bvh) {
+  if (bvh.mesh_root.size() != scene.meshes.size() || bvh.bottom_nodes > bvh.nodes.size())
+    throw std::logic_error("rebuild_bvh_top: a BVH of another scene");
+  const auto t0 = std::chrono::steady_clock::now();
+  Builder builder;
+  build_top_level(scene, bvh, builder);
+  bvh.stats.top_build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+namespace {
+
+void build_top_level(const Scene& scene, BvhHost& out, Builder& builder) {
+  const std::vector<int32_t>& mesh_root = out.mesh_root;
+  const std::vector<bool>& mesh_built = out.mesh_built;
+  out.nodes.resize(out.bottom_nodes);
+  out.instances.clear();
+  out.items.clear();
+  out.spheres.clear();
+  out.root = 0;
+  out.any_alpha_masked = false;
+  out.stats.top_depth = 0;
 
   // ---- Top level: instances (their mesh's box in world space) and spheres ----
   std::vector<RTCBuildPrimitive> prims;
@@ -341,11 +378,11 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
   for (size_t ii = 0; ii < scene.instances.size(); ++ii) {
     const Instance& inst = scene.instances[ii];
     if (!mesh_built[inst.mesh]) continue;
-    const RTCBounds& b = mesh_bounds[inst.mesh];
+    const BvhHost::MeshBox& b = out.mesh_bounds[inst.mesh];
     Vec3 lo(kInf), hi(-kInf);
     for (int k = 0; k < 8; ++k) {
-      const Vec3 p = inst.to_world.point(Vec3(k & 1 ? b.upper_x : b.lower_x, k & 2 ? b.upper_y : b.lower_y,
-                                              k & 4 ? b.upper_z : b.lower_z));
+      const Vec3 p = inst.to_world.point(Vec3(k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y,
+                                              k & 4 ? b.hi.z : b.lo.z));
       lo = vmin(lo, p);
       hi = vmax(hi, p);
     }
@@ -387,8 +424,8 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
                              std::to_string(out.stats.top_depth + out.stats.max_mesh_depth) +
                              " nodes deep, more than its stack of " + std::to_string(kBvhStackSize));
   out.stats.sah_visits_per_ray = sah_visits_per_ray(out, faces);
-  out.stats.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  return out;
 }
+
+}  // namespace
 
 }  // namespace pn

@@ -16,6 +16,7 @@ namespace pn {
 
 struct BvhStats {
   double build_ms = 0;           // host clock: every rtcBuildBVH call and the flattening
+  double top_build_ms = 0;       // host clock: the last rebuild_bvh_top (0: none)
   uint32_t meshes = 0;           // meshes with a BVH (non-empty, placed)
   uint32_t top_depth = 0;        // inner nodes on the longest root-to-leaf path of the top level
   uint32_t max_mesh_depth = 0;   // ... of the deepest mesh BVH
@@ -39,6 +40,15 @@ struct BvhHost {
   int32_t root = 0;
   bool any_alpha_masked = false;
   BvhStats stats;
+  // What the top level is built over: nodes[0, bottom_nodes) are the meshes' trees; by Scene::meshes index, each
+  // mesh's root, whether it has a tree, and its box in its own space.
+  struct MeshBox {
+    Vec3 lo, hi;
+  };
+  size_t bottom_nodes = 0;
+  std::vector<int32_t> mesh_root;
+  std::vector<bool> mesh_built;
+  std::vector<MeshBox> mesh_bounds;
 
   BvhView view() const;  // over these vectors: valid while they live unchanged
   uint64_t bytes() const;
@@ -48,5 +58,9 @@ struct BvhHost {
 // (Embree failed, the scene is beyond the layout's limits).
 // `options`: GpuTuning::bvh (render/gpu_tuning.h: --tune cuda_leaf, cuda_splits, cuda_sah_tri).
 BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options = BvhBuildOptions());
+
+// The top level of `bvh` (built by build_bvh for `scene`) built again over its meshes' trees as they are, after the
+// scene's spheres moved or resized (set_sphere_light): the same top level build_bvh makes for the edited scene.
+void rebuild_bvh_top(const Scene& scene, BvhHost& bvh);
 
 }  // namespace pn

@@ -12,6 +12,18 @@
 
 namespace pn {
 namespace optix {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+// Any-hit (alpha masks) only where a masked material can be hit: per GAS
+// SBT record through the geometry flags, per instance through its flags.
+const unsigned kOpaque = OPTIX_GEOMETRY_FLAG_DISABLE_ANYHIT;
+const unsigned kMasked = OPTIX_GEOMETRY_FLAG_NONE;
+const unsigned kMixed[2] = {kOpaque, kMasked};  // SBT records 0 (opaque) and 1 (masked)
+
+}  // namespace
 
 void Accels::build(OptixDeviceContext context, cudaStream_t stream, const Scene& scene, const std::vector<MeshView>& meshes,
                    SphereMode sphere_mode, const SceneSize& size, SceneBuildStats& stats) {
@@ -23,16 +35,8 @@ void Accels::build(OptixDeviceContext context, cudaStream_t stream, const Scene&
   auto masked_material = [&](uint32_t material) {
     return material < scene.materials.size() && scene.materials[material].alpha_mode == AlphaMode::Mask;
   };
+  sphere_mode_ = sphere_mode;
   compacted_size_.alloc(sizeof(uint64_t), "acceleration structure sizes", size);
-  using Clock = std::chrono::steady_clock;
-  auto ms_since = [](Clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  };
-  // Any-hit (alpha masks) only where a masked material can be hit: per GAS
-  // SBT record through the geometry flags, per instance through its flags.
-  static const unsigned kOpaque = OPTIX_GEOMETRY_FLAG_DISABLE_ANYHIT;
-  static const unsigned kMasked = OPTIX_GEOMETRY_FLAG_NONE;
-  static const unsigned kMixed[2] = {kOpaque, kMasked};  // SBT records 0 (opaque) and 1 (masked)
 
   std::vector<bool> used(scene.meshes.size(), false), mesh_masked(scene.meshes.size(), false);
   bool any_masked = false;
@@ -87,14 +91,36 @@ void Accels::build(OptixDeviceContext context, cudaStream_t stream, const Scene&
     ++stats.gas_count;
   }
 
+  // The IAS: every placement of a mesh (instanceId = its index in
+  // SceneView::instances), plus the spheres' GAS once with the identity.
+  mesh_instances_.clear();
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const Instance& inst = scene.instances[i];
+    if (!mesh_handle[inst.mesh]) continue;
+    OptixInstance o = {};
+    std::memcpy(o.transform, inst.to_world.m, sizeof o.transform);
+    o.instanceId = unsigned(i);
+    o.sbtOffset = kSbtMesh;
+    o.visibilityMask = 255;
+    o.flags = scene.instance_alpha_masked(inst) ? OPTIX_INSTANCE_FLAG_NONE : OPTIX_INSTANCE_FLAG_DISABLE_ANYHIT;
+    o.traversableHandle = mesh_handle[inst.mesh];
+    mesh_instances_.push_back(o);
+  }
+  rebuild_spheres(scene, stats);
+}
+
+// The spheres' GAS (world space) and the IAS over mesh_instances_ and it.
+void Accels::rebuild_spheres(const Scene& scene, SceneBuildStats& stats) {
+  const SceneSize& size = *size_;
   // The spheres' GAS, world space.
   OptixTraversableHandle sphere_handle = 0;
+  sphere_gas_.release();
   if (!scene.spheres.empty()) {
     const size_t n = scene.spheres.size();
     OptixBuildInput in = {};
     DeviceBuffer centers, radii, aabbs;
     CUdeviceptr centers_ptr = 0, radii_ptr = 0, aabbs_ptr = 0;
-    if (sphere_mode == SphereMode::Builtin) {
+    if (sphere_mode_ == SphereMode::Builtin) {
       std::vector<Vec3> c(n);
       std::vector<float> r(n);
       for (size_t i = 0; i < n; ++i) c[i] = scene.spheres[i].center, r[i] = scene.spheres[i].radius;
@@ -134,22 +160,8 @@ void Accels::build(OptixDeviceContext context, cudaStream_t stream, const Scene&
     ++stats.gas_count;
   }
 
-  // The IAS: every placement of a mesh (instanceId = its index in
-  // SceneView::instances), plus the spheres' GAS once with the identity.
-  std::vector<OptixInstance> instances;
+  std::vector<OptixInstance> instances = mesh_instances_;
   const Affine identity;
-  for (size_t i = 0; i < scene.instances.size(); ++i) {
-    const Instance& inst = scene.instances[i];
-    if (!mesh_handle[inst.mesh]) continue;
-    OptixInstance o = {};
-    std::memcpy(o.transform, inst.to_world.m, sizeof o.transform);
-    o.instanceId = unsigned(i);
-    o.sbtOffset = kSbtMesh;
-    o.visibilityMask = 255;
-    o.flags = scene.instance_alpha_masked(inst) ? OPTIX_INSTANCE_FLAG_NONE : OPTIX_INSTANCE_FLAG_DISABLE_ANYHIT;
-    o.traversableHandle = mesh_handle[inst.mesh];
-    instances.push_back(o);
-  }
   if (sphere_handle) {
     OptixInstance o = {};
     std::memcpy(o.transform, identity.m, sizeof o.transform);
@@ -160,6 +172,7 @@ void Accels::build(OptixDeviceContext context, cudaStream_t stream, const Scene&
     o.traversableHandle = sphere_handle;
     instances.push_back(o);
   }
+  ias_.release();
   if (instances.empty()) {
     handle_ = 0;  // nothing to hit: every ray runs the miss program
     return;

@@ -1,7 +1,8 @@
 // The OptiX backend's acceleration structures: one compacted GAS per placed
 // mesh (per-face SBT records where opaque and alpha-masked triangles mix), one
 // GAS of the spheres (built-in sphere primitives or custom AABBs), and an IAS
-// over every instance plus the spheres' GAS. Internal to the backend.
+// over every instance plus the spheres' GAS; the last two are built again when
+// sphere lights change. Internal to the backend.
 #pragma once
 
 #include <vector>
@@ -27,6 +28,9 @@ class Accels {
   // the build times and sizes to `stats`.
   void build(OptixDeviceContext context, cudaStream_t stream, const Scene& scene, const std::vector<MeshView>& meshes,
              SphereMode spheres, const SceneSize& size, SceneBuildStats& stats);
+  // The spheres moved or resized (set_sphere_light): their GAS and the IAS built again over the meshes' GASes as
+  // they are; handle() changes.
+  void rebuild_spheres(const Scene& scene, SceneBuildStats& stats);
   void release();
   // The IAS (0: nothing to hit, every ray misses).
   OptixTraversableHandle handle() const { return handle_; }
@@ -40,7 +44,9 @@ class Accels {
   OptixDeviceContext context_ = nullptr;
   cudaStream_t stream_ = nullptr;
   const SceneSize* size_ = nullptr;
+  SphereMode sphere_mode_ = SphereMode::Custom;
   std::vector<DeviceBuffer> mesh_gas_;
+  std::vector<OptixInstance> mesh_instances_;  // the IAS's instances but the spheres
   DeviceBuffer sphere_gas_, ias_, compacted_size_;
   OptixTraversableHandle handle_ = 0;
   unsigned ray_flags_ = OPTIX_RAY_FLAG_DISABLE_ANYHIT;

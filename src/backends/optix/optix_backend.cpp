@@ -107,6 +107,38 @@ class OptixBackendImpl final : public OptixBackend {
             {"traversal_form", wavefront_ ? wavefront_->traversal_form() : ""}};
   }
 
+  // A sphere light moved, resized or re-powered in the scene (set_sphere_light): the lights, the light selection's
+  // arrays and the sphere records are written over their device copies (the same sizes: the SceneView's addresses
+  // stay), the spheres' GAS and the IAS are built again over the meshes' GASes as they are, and the wavefront's
+  // trace stage follows (the cuda traversal's top level rebuilt, OptiX's stage rebound to the new IAS). false where
+  // the arrays' sizes changed: the caller makes a new backend.
+  bool update_lights() override {
+    use_device();
+    SceneView& v = base_params_.scene;
+    const LightCounts now = light_counts(scene_);
+    if (!(now == light_counts_) || v.num_lights != scene_.lights.size() || v.num_spheres != scene_.spheres.size())
+      return false;
+    auto write = [&](const void* device, const void* host, size_t bytes) {
+      if (bytes) PN_CUDA(cudaMemcpyAsync(const_cast<void*>(device), host, bytes, cudaMemcpyHostToDevice, stream_));
+    };
+    write(v.lights, scene_.lights.data(), scene_.lights.size() * sizeof(Light));
+    write(v.selection.power_cdf, scene_.light_cdf.data(), scene_.light_cdf.size() * sizeof(float));
+    write(v.selection.bvh.nodes, scene_.light_bvh.nodes.data(), scene_.light_bvh.nodes.size() * sizeof(LightBvhNode));
+    write(v.selection.bvh.trails, scene_.light_bvh.trails.data(), scene_.light_bvh.trails.size() * sizeof(uint64_t));
+    std::vector<SphereView> spheres;
+    spheres.reserve(scene_.spheres.size());
+    for (const Sphere& sp : scene_.spheres) spheres.push_back(SphereView{sp.center, sp.radius, sp.material, sp.light});
+    write(v.spheres, spheres.data(), spheres.size() * sizeof(SphereView));
+    PN_CUDA(cudaStreamSynchronize(stream_));  // `spheres` is a host temporary
+    v.selection = make_light_selection_view(scene_, v.selection.power_cdf, v.selection.bvh.nodes,
+                                            v.selection.bvh.trails);
+    SceneBuildStats scratch;
+    accels_.rebuild_spheres(scene_, scratch);
+    base_params_.handle = accels_.handle();
+    clear_restir_history();  // of the old lights
+    return !wavefront_ || wavefront_->update_scene(scene_, base_params_.scene);
+  }
+
   RenderStats last_render_stats() const override { return stats_; }
   SceneBuildStats scene_build_stats() const override { return build_stats_; }
 
@@ -299,6 +331,7 @@ class OptixBackendImpl final : public OptixBackend {
    public:
     explicit OptixTraceStage(OptixBackendImpl& b) : b_(b) {}
     void bind(const Queues& q) override {
+      queues_ = q;
       capacity_ = q.capacity;
       bits_ = q.blocked_bits;
       LaunchParams p[3] = {b_.base_params_, b_.base_params_, b_.base_params_};
@@ -324,6 +357,11 @@ class OptixBackendImpl final : public OptixBackend {
     }
     std::string name() const override { return "optix"; }
     bool capturable() const override { return false; }
+    // The backend's new IAS handle (and the same scene arrays) into the launches' parameters.
+    bool update_scene(const Scene&, const SceneView&) override {
+      bind(queues_);
+      return true;
+    }
 
    private:
     void launch(int k, void* stream) {
@@ -332,6 +370,7 @@ class OptixBackendImpl final : public OptixBackend {
                            capacity_, 1, 1));
     }
     OptixBackendImpl& b_;
+    Queues queues_;
     DeviceBuffer params_;
     OptixShaderBindingTable sbt_[3] = {};
     uint32_t capacity_ = 0;
@@ -499,7 +538,19 @@ class OptixBackendImpl final : public OptixBackend {
     stream_ = nullptr;
   }
 
+  // The sizes of the arrays update_lights writes over.
+  struct LightCounts {
+    size_t lights = 0, cdf = 0, nodes = 0, trails = 0, spheres = 0;
+    bool operator==(const LightCounts& o) const {
+      return lights == o.lights && cdf == o.cdf && nodes == o.nodes && trails == o.trails && spheres == o.spheres;
+    }
+  };
+  static LightCounts light_counts(const Scene& s) {
+    return {s.lights.size(), s.light_cdf.size(), s.light_bvh.nodes.size(), s.light_bvh.trails.size(),
+            s.spheres.size()};
+  }
   const Scene& scene_;
+  LightCounts light_counts_ = light_counts(scene_);
   GpuTuning tuning_;  // BackendOptions::tuning
   SceneSize size_;
   SphereMode sphere_mode_ = SphereMode::Custom;

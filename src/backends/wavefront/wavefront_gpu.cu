@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -307,23 +308,33 @@ __global__ void __launch_bounds__(kBlock) shade_replay_kernel(RestirChunk c, con
 class CudaTraceStage final : public WavefrontTraceStage {
  public:
   CudaTraceStage(const Scene& scene, const SceneView& device_scene, const GpuTuning& tuning)
-      : traversal_(build_bvh(scene, tuning.bvh), tuning), scene_(device_scene), box_(scene_bounds(scene)) {}
+      : tuning_(tuning), bvh_(build_bvh(scene, tuning.bvh)), traversal_(std::make_unique<CudaTraversal>(bvh_, tuning)),
+        scene_(device_scene), box_(scene_bounds(scene)) {}
   void bind(const Queues& q) override { q_ = q; }
   void closest(int queue, void* stream) override {
-    traversal_.trace_closest(q_.closest_rays[queue], q_.closest_count[queue], q_.capacity, q_.hits, scene_, stream);
+    traversal_->trace_closest(q_.closest_rays[queue], q_.closest_count[queue], q_.capacity, q_.hits, scene_, stream);
   }
   void shadow(void* stream) override {
-    traversal_.trace_shadow(q_.shadow_rays, q_.shadow_count, q_.capacity, q_.blocked_bits, scene_, stream);
+    traversal_->trace_shadow(q_.shadow_rays, q_.shadow_count, q_.capacity, q_.blocked_bits, scene_, stream);
   }
   bool shadow_apply(const WavefrontView* view, bool ordered, void* stream) override {
-    launch_shadow_apply(traversal_.device_view(), traversal_.forms().shadow, traversal_.shape().min_blocks,
-                        traversal_.shape().block_size, scene_, view, q_.capacity, ordered, stream);
+    launch_shadow_apply(traversal_->device_view(), traversal_->forms().shadow, traversal_->shape().min_blocks,
+                        traversal_->shape().block_size, scene_, view, q_.capacity, ordered, stream);
     return true;
   }
   bool offers_shadow_apply() const override { return true; }
   bool closest_ordered(int queue, const uint32_t* order, void* stream) override {
-    traversal_.trace_closest(q_.closest_rays[queue], q_.closest_count[queue], q_.capacity, q_.hits, scene_, stream,
-                             order);
+    traversal_->trace_closest(q_.closest_rays[queue], q_.closest_count[queue], q_.capacity, q_.hits, scene_, stream,
+                              order);
+    return true;
+  }
+  // The top level built again over the meshes' trees (rebuild_bvh_top) and the BVH uploaded anew. The scene's box,
+  // which only places the ray order's cells, is kept.
+  bool update_scene(const Scene& scene, const SceneView& device_scene) override {
+    rebuild_bvh_top(scene, bvh_);
+    traversal_.reset();  // its device memory first
+    traversal_ = std::make_unique<CudaTraversal>(bvh_, tuning_);
+    scene_ = device_scene;
     return true;
   }
   bool offers_closest_order(Vec3* lo, Vec3* hi) const override {
@@ -331,12 +342,14 @@ class CudaTraceStage final : public WavefrontTraceStage {
     *hi = box_.hi;
     return true;
   }
-  double sah_visits_per_ray() const override { return traversal_.stats().sah_visits_per_ray; }
-  std::string traversal_form() const override { return traversal_.forms().reason; }
+  double sah_visits_per_ray() const override { return traversal_->stats().sah_visits_per_ray; }
+  std::string traversal_form() const override { return traversal_->forms().reason; }
   std::string name() const override { return "cuda"; }
 
  private:
-  CudaTraversal traversal_;
+  GpuTuning tuning_;
+  BvhHost bvh_;  // kept on the host for update_scene
+  std::unique_ptr<CudaTraversal> traversal_;
   SceneView scene_;
   Bounds3 box_;
   Queues q_;
@@ -466,9 +479,19 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, const Gpu
   trace_->bind(q);
 }
 
-WavefrontGpu::~WavefrontGpu() {
+void WavefrontGpu::drop_graph() {
   if (exec_) cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(exec_));
   if (graph_) cudaGraphDestroy(static_cast<cudaGraph_t>(graph_));
+  exec_ = graph_ = nullptr;
+}
+
+bool WavefrontGpu::update_scene(const Scene& scene, const SceneView& device_scene) {
+  drop_graph();
+  return trace_->update_scene(scene, device_scene);
+}
+
+WavefrontGpu::~WavefrontGpu() {
+  drop_graph();
   cudaFree(view_device_);
   cudaFree(wave_);
   cudaFree(memory_);
@@ -479,9 +502,7 @@ WavefrontGpu::~WavefrontGpu() {
 // on the device, so the graph holds for every wave of every render call with this depth and level.
 void WavefrontGpu::record(uint32_t feature_level, int max_depth, const ShadeKernelKey& shade, void* stream_ptr) {
   cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
-  if (exec_) cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(exec_));
-  if (graph_) cudaGraphDestroy(static_cast<cudaGraph_t>(graph_));
-  exec_ = graph_ = nullptr;
+  drop_graph();
   check(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal), "cudaStreamBeginCapture");
   cudaGraph_t graph = nullptr;
   try {

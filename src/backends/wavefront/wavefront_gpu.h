@@ -60,6 +60,13 @@ class WavefrontTraceStage {
   virtual double sah_visits_per_ray() const { return 0.0; }
   // How the stage's traversal traces this scene, in a few words, where it has a choice ("": none).
   virtual std::string traversal_form() const { return ""; }
+  // The scene's sphere lights moved or resized (Backend::update_lights): the stage traces `scene` from now on
+  // (device_scene: the device SceneView, its arrays where they were), its meshes' structures kept as they are.
+  // false: the stage cannot (the backend is then made again).
+  virtual bool update_scene(const Scene& scene, const SceneView& device_scene) {
+    (void)scene, (void)device_scene;
+    return false;
+  }
   // Whether closest / shadow may be recorded in a CUDA graph. optixLaunch may not: under stream capture OptiX
   // syncs on an event of its own, which fails ("Error synching on OptixPipeline event", measured on the H200),
   // so a wave with the optix stage launches its kernels directly.
@@ -115,6 +122,10 @@ class WavefrontGpu {
   void render_restir(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t sample,
                      const RestirFrameBuffers& b, void* sum, void* sum_sq, void* stream);
 
+  // The scene's sphere lights changed (WavefrontTraceStage::update_scene); the wave's graph, which holds the
+  // stage's old structures, is recorded again at the next render. false: the stage cannot.
+  bool update_scene(const Scene& scene, const SceneView& device_scene);
+
   uint32_t capacity() const { return capacity_; }
   // In which order shadow queries from depth kShadowOrderDepth on are traced (wavefront.h's ShadowOrder), and why,
   // in a few words ("direction order (auto: rays visit 46.4 nodes, at least 24)").
@@ -129,6 +140,7 @@ class WavefrontGpu {
   bool run(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level, uint32_t first_sample,
            uint32_t spp, const RestirFrame& restir, void* sum, void* sum_sq, const DeviceFilm* film, void* stream);
   void record(uint32_t feature_level, int max_depth, const ShadeKernelKey& shade, void* stream);
+  void drop_graph();
   void enqueue(uint32_t feature_level, int max_depth, const ShadeKernelKey& shade, void* stream);
 
   std::unique_ptr<WavefrontTraceStage> trace_;
