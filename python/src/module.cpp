@@ -432,6 +432,7 @@ them without a copy to the host.)")
                   {"rr_depth", i.rr_depth},
                   {"strategy", strategy_name(i.strategy)},
                   {"mis", mis_name(i.mis)},
+                  {"mis_compensation", i.mis_compensation},
                   {"light_selection", light_selection_name(i.light_selection)},
                   {"seed", s.seed}};
         return to_py(j);

@@ -229,6 +229,7 @@ json Renderer::stats() const {
   s["spp"] = spp;
   s["strategy"] = strategy_name(settings_.integrator.strategy);
   s["mis"] = mis_name(settings_.integrator.mis);
+  s["mis_compensation"] = settings_.integrator.mis_compensation;
   s["light_selection"] = light_selection_name(settings_.integrator.light_selection);
   s["max_depth"] = settings_.integrator.max_depth;
   s["rr_depth"] = settings_.integrator.rr_depth;

@@ -115,6 +115,10 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
                   "Multiple importance sampling of light and BSDF samples (default: the scene's; power for scenes "
                   "that do not say, none for the thesis's cornell-sphere, cornell-near and occlusion): " + mis_help())
       ->check(render_setting("mis", true));
+  sub->add_flag("--mis-compensation", o->mis_compensation,
+                "MIS compensation of the environment light (Karlik et al. 2019): with --mis balance or power, its "
+                "light samples come from its distribution less its mean radiance, leaving the dim directions to the "
+                "BSDF sample (render.mis_compensation; no effect without MIS or with restir)");
   std::string selections;
   for (int i = 0; i < kNumLightSelections; ++i)
     selections += std::string("\n  ") + light_selection_name(LightSelection(i)) + ": " +
@@ -263,6 +267,7 @@ static void add_gpus_option(CLI::App* sub, std::string* gpus) {
 void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::string>* overrides) {
   if (!o.strategy.empty()) overrides->push_back("render.strategy=\"" + o.strategy + "\"");
   if (!o.mis.empty()) overrides->push_back("render.mis=\"" + o.mis + "\"");
+  if (o.mis_compensation) overrides->push_back("render.mis_compensation=true");
   if (!o.light_selection.empty()) overrides->push_back("render.light_selection=\"" + o.light_selection + "\"");
   if (o.max_depth != IntegratorOptions::kUnset) overrides->push_back("render.max_depth=" + std::to_string(o.max_depth));
   if (o.seed != IntegratorOptions::kUnset) overrides->push_back("render.seed=" + std::to_string(o.seed));

@@ -18,6 +18,7 @@ struct BackendOptions;
 struct IntegratorOptions {
   static constexpr long long kUnset = std::numeric_limits<long long>::min();  // not given: the scene's
   std::string strategy, mis, light_selection;  // empty: the scene's
+  bool mis_compensation = false;               // --mis-compensation (render.mis_compensation=true)
   long long max_depth = kUnset, seed = kUnset;  // --max-depth, --seed (render.max_depth, render.seed)
   // restir's settings (render.restir.*); kUnset / empty: the scene's.
   long long restir_candidates = kUnset, restir_spatial = kUnset, restir_neighbors = kUnset;

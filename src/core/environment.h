@@ -5,12 +5,21 @@
 // coordinates u = p / (2 pi) + 1/2, v = t / pi, so the top row is straight up
 // and the image's centre column looks down -z. The importance distribution is
 // piecewise constant over the image's pixels with density proportional to
-// luminance x sin t (pbrt-v4's ImageInfiniteLight, without its compensation),
-// sampled by inverting the marginal CDF over rows and the conditional CDF over
-// the chosen row. Densities convert from (u, v) to solid angle by
-// p(w) = p(u, v) / (2 pi^2 sin t). The image is looked up without filtering
-// (nearest texel) so that radiance and density are constant over the same
-// cells: the density is then never zero where radiance is not.
+// luminance x sin t (pbrt-v4's ImageInfiniteLight), sampled by inverting the
+// marginal CDF over rows and the conditional CDF over the chosen row. Densities
+// convert from (u, v) to solid angle by p(w) = p(u, v) / (2 pi^2 sin t). The
+// image is looked up without filtering (nearest texel) so that radiance and
+// density are constant over the same cells: the density is then never zero
+// where radiance is not.
+//
+// MIS compensation (Karlik, Sik, Vevoda, Skrivan & Krivanek 2019, as pbrt-v4
+// does it): where the light sample is weighed by MIS against a BSDF sample, it
+// may come from a second distribution, max(0, luminance - the mean luminance
+// over the sphere) x sin t, which leaves the directions no brighter than the
+// mean to the BSDF sample (its MIS weight is 1 there, where the light
+// technique's density is 0): the light technique spends its samples where it
+// beats BSDF sampling. Where no texel is above the mean (a constant
+// environment) the compensated distribution is empty and the full one is used.
 #pragma once
 
 #include "common.h"
@@ -40,12 +49,18 @@ PN_FN float sample_distribution(const Distribution1DView& d, float u, float* pdf
   return pn_min((float(lo) + du) / float(d.n), kOneMinusEpsilon);
 }
 
-struct EnvironmentView {
-  TextureView image;                  // Rgba32f, linear radiance, nearest-texel lookup
-  Distribution1DView marginal;        // over rows (height pieces)
+// A density over the image: a marginal over rows (height pieces) and a conditional per row.
+struct EnvironmentDistributionView {
+  Distribution1DView marginal;
   const float* conditional_func = nullptr;  // height x width
   const float* conditional_cdf = nullptr;   // height x (width + 1)
-  uint32_t width = 0, height = 0;     // of the distribution (the image's size)
+};
+
+struct EnvironmentView {
+  TextureView image;                  // Rgba32f, linear radiance, nearest-texel lookup
+  EnvironmentDistributionView distribution;  // luminance x sin t
+  EnvironmentDistributionView compensated;   // max(0, luminance - mean) x sin t; integral 0: empty
+  uint32_t width = 0, height = 0;     // of the distributions (the image's size)
   float cos_rot = 1.f, sin_rot = 0.f; // rotation about +y, world = R * env
   Vec3 scale{1.f};                    // intensity (and tint)
   PN_HD bool present() const { return width > 0; }
@@ -77,26 +92,33 @@ PN_FN Vec3 environment_radiance(const EnvironmentView& e, Vec3 w) {
   return texture_lookup(e.image, equirect_uv(env_from_world(e, w))).rgb * e.scale;
 }
 
+// The distribution light samples come from: the compensated one where asked for and not empty.
+PN_FN const EnvironmentDistributionView& environment_distribution(const EnvironmentView& e, bool compensated) {
+  return compensated && e.compensated.marginal.integral > 0.f ? e.compensated : e.distribution;
+}
+
 // The row-th conditional distribution.
-PN_FN Distribution1DView environment_row(const EnvironmentView& e, uint32_t row) {
+PN_FN Distribution1DView environment_row(const EnvironmentView& e, const EnvironmentDistributionView& dist,
+                                         uint32_t row) {
   Distribution1DView d;
-  d.func = e.conditional_func + size_t(row) * e.width;
-  d.cdf = e.conditional_cdf + size_t(row) * (e.width + 1);
+  d.func = dist.conditional_func + size_t(row) * e.width;
+  d.cdf = dist.conditional_cdf + size_t(row) * (e.width + 1);
   d.n = e.width;
-  d.integral = e.marginal.func[row];  // the row's integral is the marginal's value
+  d.integral = dist.marginal.func[row];  // the row's integral is the marginal's value
   return d;
 }
 
-// Solid-angle density of environment_sample() returning world direction w.
-PN_FN float environment_pdf(const EnvironmentView& e, Vec3 w) {
-  if (!(e.marginal.integral > 0.f)) return 0.f;
+// Solid-angle density of environment_sample() returning world direction w (`compensated`: the same as there).
+PN_FN float environment_pdf(const EnvironmentView& e, Vec3 w, bool compensated = false) {
+  const EnvironmentDistributionView& dist = environment_distribution(e, compensated);
+  if (!(dist.marginal.integral > 0.f)) return 0.f;
   Vec3 d = env_from_world(e, w);
   Vec2 uv = equirect_uv(d);
   float st = std::sqrt(d.x * d.x + d.z * d.z);  // sin t, without a round trip through t
   if (!(st > 0.f)) return 0.f;
   uint32_t col = pn_min(uint32_t(pn_max(0.f, uv.x) * float(e.width)), e.width - 1);
   uint32_t row = pn_min(uint32_t(pn_max(0.f, uv.y) * float(e.height)), e.height - 1);
-  float pdf_uv = e.conditional_func[size_t(row) * e.width + col] / e.marginal.integral;
+  float pdf_uv = dist.conditional_func[size_t(row) * e.width + col] / dist.marginal.integral;
   return pdf_uv / (2.f * kPi * kPi * st);
 }
 
@@ -108,13 +130,15 @@ struct EnvironmentSample {
   float pdf = 0.f;
 };
 
-PN_FN EnvironmentSample environment_sample(const EnvironmentView& e, Vec2 u) {
+// `compensated`: from the MIS-compensated distribution (where it is not empty).
+PN_FN EnvironmentSample environment_sample(const EnvironmentView& e, Vec2 u, bool compensated = false) {
   EnvironmentSample s;
-  if (!(e.marginal.integral > 0.f)) return s;
+  const EnvironmentDistributionView& dist = environment_distribution(e, compensated);
+  if (!(dist.marginal.integral > 0.f)) return s;
   float pdf_v, pdf_u;
   uint32_t row, col;
-  float v = sample_distribution(e.marginal, u.y, &pdf_v, &row);
-  float uu = sample_distribution(environment_row(e, row), u.x, &pdf_u, &col);
+  float v = sample_distribution(dist.marginal, u.y, &pdf_v, &row);
+  float uu = sample_distribution(environment_row(e, dist, row), u.x, &pdf_u, &col);
   float st = std::sin(v * kPi);
   if (!(st > 0.f) || !(pdf_u * pdf_v > 0.f)) return s;
   s.wi = env_to_world(e, equirect_direction(Vec2(uu, v)));

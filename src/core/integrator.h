@@ -60,10 +60,21 @@ struct IntegratorSettings {
   RestirSettings restir;  // light_selection == Restir only
   int max_depth = 8;  // maximum number of scattering vertices on a path
   int rr_depth = 5;   // Russian roulette from this vertex on
+  // MIS compensation of the environment (environment.h; Karlik et al. 2019): see environment_compensated.
+  bool mis_compensation = false;
 };
 inline bool operator==(const IntegratorSettings& a, const IntegratorSettings& b) {
   return a.strategy == b.strategy && a.mis == b.mis && a.light_selection == b.light_selection &&
-         a.restir == b.restir && a.max_depth == b.max_depth && a.rr_depth == b.rr_depth;
+         a.restir == b.restir && a.max_depth == b.max_depth && a.rr_depth == b.rr_depth &&
+         a.mis_compensation == b.mis_compensation;
+}
+
+// Whether light samples of the environment come from its MIS-compensated distribution: with mis_compensation,
+// where MIS weighs each light sample against a BSDF sample (balance or power) that covers what the compensated
+// distribution leaves out. Not with restir, whose resampled candidates are weighed in its own passes: there (and
+// without MIS) the setting changes nothing.
+PN_FN bool environment_compensated(const IntegratorSettings& s) {
+  return s.mis_compensation && s.mis != Mis::None && s.light_selection != LightSelection::Restir;
 }
 inline bool operator!=(const IntegratorSettings& a, const IntegratorSettings& b) { return !(a == b); }
 
@@ -114,7 +125,8 @@ PN_FN DirectSample choose_direct_sample(const SceneView& scene, const Integrator
     }
     const SelectedLight sel = select_light(scene.selection, scene.num_lights, method, ctx, u_select);
     if (!(sel.pmf > 0.f)) continue;
-    const LightSample ls = sample_light<kFeatures>(scene, s.strategy, load_light(scene.lights, sel.index), ctx, u);
+    const LightSample ls = sample_light<kFeatures>(scene, s.strategy, load_light(scene.lights, sel.index), ctx, u,
+                                                   environment_compensated(s));
     if (!(ls.pdf > 0.f)) continue;
     const Vec3 f = bsdf_eval<kSpecular>(bsdf, wo, ls.wi);
     if (is_black(f)) continue;
@@ -270,7 +282,8 @@ template <uint32_t kFeatures = kAllFeatures>
 PN_FN float bsdf_emission_weight(const SceneView& scene, const IntegratorSettings& s, const PrevVertex& prev,
                                  uint32_t index, Vec3 w) {
   const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), prev.ctx, index) *
-                        light_pdf<kFeatures>(scene, s.strategy, load_light(scene.lights, index), prev.ctx, w);
+                        light_pdf<kFeatures>(scene, s.strategy, load_light(scene.lights, index), prev.ctx, w,
+                                             environment_compensated(s));
   return mis_weight(s.mis, prev.bsdf_pdf, restir_mis_density(p_light, prev.light_candidates));
 }
 

@@ -38,12 +38,13 @@ PN_FN Vec3 escaped_radiance(const SceneView& scene, Vec3 d) {
 
 // --- Sampling and pdfs, by strategy and light type -------------------------------------
 
-// The environment, whatever the strategy: its image's importance distribution.
+// The environment, whatever the strategy: its image's importance distribution (`compensated`: the MIS-compensated
+// one, environment.h).
 template <uint32_t kFeatures>
-PN_FN LightSample sample_environment_light(const SceneView& scene, Vec2 u) {
+PN_FN LightSample sample_environment_light(const SceneView& scene, Vec2 u, bool compensated) {
   LightSample s;
   if (!(kFeatures & kFeatureEnvironment)) return s;
-  const EnvironmentSample es = environment_sample(scene.environment, u);
+  const EnvironmentSample es = environment_sample(scene.environment, u, compensated);
   s.wi = es.wi;
   s.L = es.L;
   s.pdf = es.pdf;
@@ -51,8 +52,11 @@ PN_FN LightSample sample_environment_light(const SceneView& scene, Vec2 u) {
   return s;
 }
 
+// `compensated`: the environment by its MIS-compensated distribution (environment_compensated, integrator.h); the
+// pdf of the same light and direction must be asked with the same value.
 template <class S, uint32_t kFeatures = kAllFeatures>
-PN_FN LightSample sample_light_as(const SceneView& scene, const Light& l, const LightSampleContext& ctx, Vec2 u) {
+PN_FN LightSample sample_light_as(const SceneView& scene, const Light& l, const LightSampleContext& ctx, Vec2 u,
+                                  bool compensated = false) {
   LightSample s;
   switch (l.type) {
     case LightType::Sphere:
@@ -65,7 +69,7 @@ PN_FN LightSample sample_light_as(const SceneView& scene, const Light& l, const 
       s = S::sample_triangle(l, ctx, u);
       break;
     case LightType::Environment:
-      return sample_environment_light<kFeatures>(scene, u);
+      return sample_environment_light<kFeatures>(scene, u, compensated);
   }
   if (s.pdf > 0.f)
     s.L = light_emission<kFeatures>(scene, l, l.type == LightType::Triangle ? lerp_uv(l.uv0, l.uv1, l.uv2, s.b.x, s.b.y)
@@ -74,7 +78,8 @@ PN_FN LightSample sample_light_as(const SceneView& scene, const Light& l, const 
 }
 
 template <class S, uint32_t kFeatures = kAllFeatures>
-PN_FN float light_pdf_as(const SceneView& scene, const Light& l, const LightSampleContext& ctx, Vec3 wi) {
+PN_FN float light_pdf_as(const SceneView& scene, const Light& l, const LightSampleContext& ctx, Vec3 wi,
+                         bool compensated = false) {
   switch (l.type) {
     case LightType::Sphere:
       return S::pdf_sphere(l, ctx, wi);
@@ -83,7 +88,7 @@ PN_FN float light_pdf_as(const SceneView& scene, const Light& l, const LightSamp
     case LightType::Triangle:
       return S::pdf_triangle(l, ctx, wi);
     case LightType::Environment:
-      return (kFeatures & kFeatureEnvironment) ? environment_pdf(scene.environment, wi) : 0.f;
+      return (kFeatures & kFeatureEnvironment) ? environment_pdf(scene.environment, wi, compensated) : 0.f;
   }
   return 0.f;
 }
@@ -92,11 +97,11 @@ PN_FN float light_pdf_as(const SceneView& scene, const Light& l, const LightSamp
 // strategy, where it folds away).
 template <uint32_t kFeatures = kAllFeatures>
 PN_FN LightSample sample_light(const SceneView& scene, Strategy strategy, const Light& l, const LightSampleContext& ctx,
-                               Vec2 u) {
+                               Vec2 u, bool compensated = false) {
   switch (strategy) {
 #define PN_X(e, name, impl, nee, desc) \
   case Strategy::e:                    \
-    return sample_light_as<impl, kFeatures>(scene, l, ctx, u);
+    return sample_light_as<impl, kFeatures>(scene, l, ctx, u, compensated);
     PN_STRATEGIES(PN_X)
 #undef PN_X
     case Strategy::Count:
@@ -107,11 +112,11 @@ PN_FN LightSample sample_light(const SceneView& scene, Strategy strategy, const 
 
 template <uint32_t kFeatures = kAllFeatures>
 PN_FN float light_pdf(const SceneView& scene, Strategy strategy, const Light& l, const LightSampleContext& ctx,
-                      Vec3 wi) {
+                      Vec3 wi, bool compensated = false) {
   switch (strategy) {
 #define PN_X(e, name, impl, nee, desc) \
   case Strategy::e:                    \
-    return light_pdf_as<impl, kFeatures>(scene, l, ctx, wi);
+    return light_pdf_as<impl, kFeatures>(scene, l, ctx, wi, compensated);
     PN_STRATEGIES(PN_X)
 #undef PN_X
     case Strategy::Count:

@@ -87,6 +87,10 @@ struct Node {
     if (v < lo || v > hi) fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "] (got " + std::to_string(v) + ")");
     return int(v);
   }
+  bool boolean() const {
+    if (!j.is_boolean()) fail("expected true or false, got " + j.dump());
+    return j.get<bool>();
+  }
   std::string string() const {
     if (!j.is_string()) fail("expected a string, got " + std::string(j.type_name()));
     return j.get<std::string>();

@@ -84,14 +84,21 @@ struct TextureImage {
   TextureView view() const;  // host view (CPU backend)
 };
 
-// The environment map and its sampling distribution (finalize_scene()).
+// A piecewise-constant density over the environment image (core/environment.h): a marginal over rows, a
+// conditional per row; integral: the marginal's (0: empty).
+struct EnvironmentDistribution {
+  std::vector<float> marginal_func, marginal_cdf;        // height, height + 1
+  std::vector<float> conditional_func, conditional_cdf;  // height x width, height x (width + 1)
+  float integral = 0.f;
+};
+
+// The environment map and its sampling distributions (finalize_scene()).
 struct Environment {
   int32_t texture = -1;  // index into Scene::textures (Rgba32f, nearest); -1: none
   float rotation = 0.f;  // degrees about +y
   Vec3 scale{1.f};       // intensity
-  std::vector<float> marginal_func, marginal_cdf;        // height, height + 1
-  std::vector<float> conditional_func, conditional_cdf;  // height x width, height x (width + 1)
-  float integral = 0.f;
+  EnvironmentDistribution distribution;  // luminance x sin(theta)
+  EnvironmentDistribution compensated;   // max(0, luminance - its mean over the sphere) x sin(theta): MIS compensation
 };
 
 struct Sphere {

@@ -27,6 +27,27 @@ float build_cdf(const float* func, size_t n, float* cdf) {
   return float(sum / double(n));
 }
 
+// The density max(0, lum - minus) x sin(theta) over a W x H image (lum row by row, sin_theta by row), as its
+// marginal and conditional CDFs; every value 0 (nothing above `minus`) gives integral 0, an empty distribution.
+// A texel within 1e-5 (relative) of `minus` counts as at it: a constant image, whose mean rounds a little below
+// some texels, gives an empty distribution, not a few texels of rounding noise.
+void build_environment_distribution(const std::vector<float>& lum, const std::vector<float>& sin_theta, int W, int H,
+                                    float minus, EnvironmentDistribution* d) {
+  d->conditional_func.assign(size_t(W) * H, 0.f);
+  d->conditional_cdf.assign(size_t(W + 1) * H, 0.f);
+  d->marginal_func.assign(size_t(H), 0.f);
+  d->marginal_cdf.assign(size_t(H) + 1, 0.f);
+  for (int y = 0; y < H; ++y) {
+    float* f = &d->conditional_func[size_t(y) * W];
+    for (int x = 0; x < W; ++x) {
+      const float excess = lum[size_t(y) * W + size_t(x)] - minus;
+      f[x] = excess > 1e-5f * minus ? excess * sin_theta[size_t(y)] : 0.f;
+    }
+    d->marginal_func[size_t(y)] = build_cdf(f, size_t(W), &d->conditional_cdf[size_t(y) * (W + 1)]);
+  }
+  d->integral = build_cdf(d->marginal_func.data(), size_t(H), d->marginal_cdf.data());
+}
+
 float average_luminance(const TextureImage& t) {
   if (t.width <= 0 || t.height <= 0) return 1.f;
   TextureView v = t.view();
@@ -89,17 +110,20 @@ void finalize_scene(Scene& s) {
     const TextureImage& img = s.textures[size_t(env.texture)];
     const int W = img.width, H = img.height;
     TextureView v = img.view();
-    env.conditional_func.assign(size_t(W) * H, 0.f);
-    env.conditional_cdf.assign(size_t(W + 1) * H, 0.f);
-    env.marginal_func.assign(size_t(H), 0.f);
-    env.marginal_cdf.assign(size_t(H) + 1, 0.f);
+    std::vector<float> lum(size_t(W) * size_t(H)), sin_theta(static_cast<size_t>(H));
+    double weighted = 0.0, weights = 0.0;  // the mean luminance over the sphere: texels weighted by their solid angle
     for (int y = 0; y < H; ++y) {
-      float st = std::sin(kPi * (float(y) + 0.5f) / float(H));
-      float* f = &env.conditional_func[size_t(y) * W];
-      for (int x = 0; x < W; ++x) f[x] = pn_max(0.f, luminance(texel_fetch(v, x, y).rgb)) * st;
-      env.marginal_func[size_t(y)] = build_cdf(f, size_t(W), &env.conditional_cdf[size_t(y) * (W + 1)]);
+      sin_theta[size_t(y)] = std::sin(kPi * (float(y) + 0.5f) / float(H));
+      for (int x = 0; x < W; ++x) {
+        const float l = pn_max(0.f, luminance(texel_fetch(v, x, y).rgb));
+        lum[size_t(y) * W + size_t(x)] = l;
+        weighted += double(l) * sin_theta[size_t(y)];
+        weights += sin_theta[size_t(y)];
+      }
     }
-    env.integral = build_cdf(env.marginal_func.data(), size_t(H), env.marginal_cdf.data());
+    const float mean = weights > 0.0 ? float(weighted / weights) : 0.f;
+    build_environment_distribution(lum, sin_theta, W, H, 0.f, &env.distribution);
+    build_environment_distribution(lum, sin_theta, W, H, mean, &env.compensated);
     Light l;
     l.type = LightType::Environment;
     l.radiance = env.scale;
@@ -123,7 +147,7 @@ void build_light_selection(Scene& s, std::vector<float>& tex_avg) {
     float p = 0.f;
     if (l.type == LightType::Environment) {
       // Phi = pi R^2 * integral of L over the sphere of directions.
-      p = kPi * R * R * 2.f * kPi * kPi * env.integral * luminance(env.scale);
+      p = kPi * R * R * 2.f * kPi * kPi * env.distribution.integral * luminance(env.scale);
     } else {
       float tex = 1.f;
       if (l.type == LightType::Triangle && l.emission_tex >= 0) {

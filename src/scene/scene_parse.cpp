@@ -84,10 +84,7 @@ void parse_restir(const Node& n, RestirSettings* r) {
   if (n.has("neighbors")) r->neighbors = uint32_t(n.at("neighbors").integer(1, long(kMaxRestirNeighbors)));
   if (n.has("radius")) r->radius = n.at("radius").real(1.0, 4096.0);
   auto flag = [&](const char* key, uint32_t* out) {
-    if (!n.has(key)) return;
-    Node u = n.at(key);
-    if (!u.j.is_boolean()) u.fail("expected true or false, got " + u.j.dump());
-    *out = u.j.get<bool>() ? 1u : 0u;
+    if (n.has(key)) *out = n.at(key).boolean() ? 1u : 0u;
   };
   flag("unbiased", &r->unbiased);
   flag("pairwise", &r->pairwise);
@@ -106,8 +103,8 @@ void parse_restir(const Node& n, RestirSettings* r) {
 }
 
 void parse_render(const Node& n, Scene& s) {
-  n.expect_object({"width", "height", "spp", "max_depth", "rr_depth", "strategy", "mis", "light_selection", "restir",
-                   "seed"});
+  n.expect_object({"width", "height", "spp", "max_depth", "rr_depth", "strategy", "mis", "mis_compensation",
+                   "light_selection", "restir", "seed"});
   RenderSettings& r = s.render;
   if (n.has("width")) r.width = n.at("width").integer(1, kMaxResolution);
   if (n.has("height")) r.height = n.at("height").integer(1, kMaxResolution);
@@ -122,6 +119,7 @@ void parse_render(const Node& n, Scene& s) {
   };
   choice("strategy", &r.integrator.strategy, find_strategy, strategy_names());
   choice("mis", &r.integrator.mis, find_mis, mis_names());
+  if (n.has("mis_compensation")) r.integrator.mis_compensation = n.at("mis_compensation").boolean();
   choice("light_selection", &r.integrator.light_selection, find_light_selection, light_selection_names());
   if (n.has("restir")) parse_restir(n.at("restir"), &r.integrator.restir);
   if (n.has("seed")) r.seed = uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max())));

@@ -91,12 +91,16 @@ PlacedSceneView build_scene_view(const Scene& scene, SceneArrays& arrays) {
     e.image = textures[size_t(env.texture)];
     e.width = uint32_t(e.image.width);
     e.height = uint32_t(e.image.height);
-    e.marginal.func = place_array(arrays, env.marginal_func, "the environment's distribution", true);
-    e.marginal.cdf = place_array(arrays, env.marginal_cdf, "the environment's distribution", true);
-    e.marginal.n = e.height;
-    e.marginal.integral = env.integral;
-    e.conditional_func = place_array(arrays, env.conditional_func, "the environment's distribution", true);
-    e.conditional_cdf = place_array(arrays, env.conditional_cdf, "the environment's distribution", true);
+    auto place_distribution = [&](const EnvironmentDistribution& from, EnvironmentDistributionView& to) {
+      to.marginal.func = place_array(arrays, from.marginal_func, "the environment's distribution", true);
+      to.marginal.cdf = place_array(arrays, from.marginal_cdf, "the environment's distribution", true);
+      to.marginal.n = e.height;
+      to.marginal.integral = from.integral;
+      to.conditional_func = place_array(arrays, from.conditional_func, "the environment's distribution", true);
+      to.conditional_cdf = place_array(arrays, from.conditional_cdf, "the environment's distribution", true);
+    };
+    place_distribution(env.distribution, e.distribution);
+    place_distribution(env.compensated, e.compensated);
     const float rad = env.rotation * kPi / 180.f;
     e.cos_rot = std::cos(rad);
     e.sin_rot = std::sin(rad);

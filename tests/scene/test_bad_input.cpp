@@ -107,8 +107,8 @@ TEST(BadInput, NonFiniteTexelsAreRepairedWithAWarning) {
     sum += row / t.width * std::sin(kPi * (y + 0.5) / t.height);
   }
   const double expected = sum / t.height;
-  EXPECT_NEAR(s.environment.integral, expected, 1e-5 * expected);
-  for (float c : s.environment.marginal_cdf) EXPECT_TRUE(std::isfinite(c));
+  EXPECT_NEAR(s.environment.distribution.integral, expected, 1e-5 * expected);
+  for (float c : s.environment.distribution.marginal_cdf) EXPECT_TRUE(std::isfinite(c));
   // Rendered: no sample is lost to the bad texels, and the sky is bright.
   Rendered r = render(s);
   EXPECT_EQ(r.stats.nonfinite, 0u);

@@ -301,7 +301,7 @@ TEST(Models, EnvironmentFromHdr) {
   EXPECT_EQ(t.width, 2 * t.height);
   EXPECT_EQ(s.environment.rotation, 90.f);
   expect_near3(s.environment.scale, Vec3(1.f, 2.f, 3.f), 0.f, "intensity");
-  EXPECT_GT(s.environment.integral, 0.f);
+  EXPECT_GT(s.environment.distribution.integral, 0.f);
   EXPECT_EQ(s.lights.back().type, LightType::Environment);
   render_tiny(s);
   json bad = model_scene("tiny.gltf");

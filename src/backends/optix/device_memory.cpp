@@ -45,8 +45,9 @@ DeviceEstimate estimate_device_memory(const Scene& scene) {
   e.geometry += n_inst * (sizeof(InstanceView) + 80) + n_sph * sizeof(SphereView) +
                 scene.lights.size() * (sizeof(Light) + sizeof(float)) + scene.materials.size() * sizeof(Material);
   const Environment& env = scene.environment;
-  e.geometry += (env.conditional_func.size() + env.conditional_cdf.size() + env.marginal_func.size() +
-                 env.marginal_cdf.size()) * sizeof(float);
+  for (const EnvironmentDistribution* d : {&env.distribution, &env.compensated})
+    e.geometry += (d->conditional_func.size() + d->conditional_cdf.size() + d->marginal_func.size() +
+                   d->marginal_cdf.size()) * sizeof(float);
   e.geometry += scene.light_bvh.bytes();  // the light BVH's nodes and trails
   for (const TextureImage& t : scene.textures)  // sRGB colour travels decoded, as float (DeviceTexture::create)
     e.textures += t.texels.size() * (t.format == TexelFormat::Rgba8Srgb ? 4 : 1) + sizeof(TextureView);
