@@ -20,13 +20,28 @@ spp=1024
 techniques=${GPU_TEST_TECHNIQUES:-"area:none area:balance area:power solid-angle:none solid-angle:balance
   solid-angle:power projected-solid-angle:none projected-solid-angle:balance projected-solid-angle:power bsdf:none"}
 techniques=$(xargs <<<"$techniques")  # one line
+# Techniques a scene adds to the list: glossy's sky with MIS compensation (--mis-compensation), written
+# strategy:MIS-compensated.
+scene_techniques() {
+  case $1 in
+    glossy) echo "solid-angle:power-compensated" ;;
+  esac
+}
+# A technique's MIS options.
+mis_args() {
+  case $1 in
+    *-compensated) echo "--mis ${1%-compensated} --mis-compensation" ;;
+    *) echo "--mis $1" ;;
+  esac
+}
 # The same-seed pairs of a scene (strategy:mis ...).
 same_seed_techniques() {
   case $1 in
     cornell-sphere) echo "solid-angle:none projected-solid-angle:power" ;;
     polygon-near) echo "solid-angle:power" ;;
     cornell-quad) echo "projected-solid-angle:balance" ;;
-    glossy | sponza) echo "solid-angle:power" ;;
+    glossy) echo "solid-angle:power solid-angle:power-compensated" ;;
+    sponza) echo "solid-angle:power" ;;
   esac
 }
 
@@ -51,10 +66,13 @@ fi
 
 echo "== CPU vs GPU at ${width}x${height}, $spp spp"
 for scene in "${scenes[@]}"; do
-  for t in $techniques; do
+  scene_all=$techniques  # with the scene's own techniques unless GPU_TEST_TECHNIQUES narrows them
+  [[ -z ${GPU_TEST_TECHNIQUES:-} ]] && scene_all+=" $(scene_techniques "$scene")"
+  for t in $scene_all; do
     strategy=${t%%:*} mis=${t##*:}
     n=${scene}_${strategy}_${mis}
-    extra=(--strategy "$strategy" --mis "$mis")
+    # shellcheck disable=SC2046
+    extra=(--strategy "$strategy" $(mis_args "$mis"))
     # Light sampling alone is too heavy-tailed for a z-test on glossy's 0.2 roughness (tests/backends/test_render.cpp,
     # MisAgrees): compare it at 0.6.
     [[ $scene == glossy && $mis == none ]] && extra+=(--set defaults.roughness=0.6)
@@ -88,13 +106,14 @@ for scene in "${scenes[@]}"; do
   done
   # Same seed: the GPU traces the very paths the CPU traced (the same RNG streams).
   for t in $(same_seed_techniques "$scene"); do
-    [[ " $techniques " == *" $t "* ]] || continue
+    [[ " $scene_all " == *" $t "* ]] || continue
     strategy=${t%%:*} mis=${t##*:}
     n=${scene}_${strategy}_${mis}
     [[ -f $out/${n}_cpu.exr ]] || continue  # its CPU render failed above
     n_spp=$spp
     [[ $scene == glossy && $mis != none ]] && n_spp=2048
-    extra=(--strategy "$strategy" --mis "$mis")
+    # shellcheck disable=SC2046
+    extra=(--strategy "$strategy" $(mis_args "$mis"))
     [[ $scene == glossy && $mis == none ]] && extra+=(--set defaults.roughness=0.6)
     for mode in wf_cuda wf_optix; do
       gpu_args $mode
