@@ -178,6 +178,10 @@ struct PlacedSceneView {
 };
 PlacedSceneView build_scene_view(const Scene& scene, SceneArrays& arrays);
 
+// The sphere records a SceneView points at, one per Scene::spheres (build_scene_view places them; a GPU backend's
+// light edit writes them over their device copy).
+std::vector<SphereView> sphere_views(const Scene& scene);
+
 // The arrays a SceneView points at, in host memory, for a backend that traces
 // on the CPU. Lives as long as the scene it was made from, which must not move.
 struct HostSceneView {

@@ -32,6 +32,13 @@ const T* place_array(SceneArrays& arrays, const std::vector<T>& v, const char* w
 
 }  // namespace
 
+std::vector<SphereView> sphere_views(const Scene& scene) {
+  std::vector<SphereView> out;
+  out.reserve(scene.spheres.size());
+  for (const Sphere& sp : scene.spheres) out.push_back(SphereView{sp.center, sp.radius, sp.material, sp.light});
+  return out;
+}
+
 PlacedSceneView build_scene_view(const Scene& scene, SceneArrays& arrays) {
   PlacedSceneView placed;
   // Each placed mesh's arrays once, whatever its number of instances.
@@ -63,9 +70,7 @@ PlacedSceneView build_scene_view(const Scene& scene, SceneArrays& arrays) {
     v.light_base = inst.light_base;
     instances.push_back(v);
   }
-  std::vector<SphereView> spheres;
-  spheres.reserve(scene.spheres.size());
-  for (const Sphere& sp : scene.spheres) spheres.push_back(SphereView{sp.center, sp.radius, sp.material, sp.light});
+  const std::vector<SphereView> spheres = sphere_views(scene);
   std::vector<TextureView> textures;
   textures.reserve(scene.textures.size());
   for (size_t i = 0; i < scene.textures.size(); ++i) textures.push_back(arrays.texture(scene.textures[i], i));

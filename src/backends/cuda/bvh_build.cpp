@@ -353,10 +353,8 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
 void rebuild_bvh_top(const Scene& scene, BvhHost& bvh) {
   if (bvh.mesh_root.size() != scene.meshes.size() || bvh.bottom_nodes > bvh.nodes.size())
     throw std::logic_error("rebuild_bvh_top: a BVH of another scene");
-  const auto t0 = std::chrono::steady_clock::now();
   Builder builder;
   build_top_level(scene, bvh, builder);
-  bvh.stats.top_build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
 namespace {

@@ -16,7 +16,6 @@ namespace pn {
 
 struct BvhStats {
   double build_ms = 0;           // host clock: every rtcBuildBVH call and the flattening
-  double top_build_ms = 0;       // host clock: the last rebuild_bvh_top (0: none)
   uint32_t meshes = 0;           // meshes with a BVH (non-empty, placed)
   uint32_t top_depth = 0;        // inner nodes on the longest root-to-leaf path of the top level
   uint32_t max_mesh_depth = 0;   // ... of the deepest mesh BVH

@@ -115,9 +115,7 @@ class OptixBackendImpl final : public OptixBackend {
   bool update_lights() override {
     use_device();
     SceneView& v = base_params_.scene;
-    const LightCounts now = light_counts(scene_);
-    if (!(now == light_counts_) || v.num_lights != scene_.lights.size() || v.num_spheres != scene_.spheres.size())
-      return false;
+    if (!(light_counts(scene_) == light_counts_)) return false;
     auto write = [&](const void* device, const void* host, size_t bytes) {
       if (bytes) PN_CUDA(cudaMemcpyAsync(const_cast<void*>(device), host, bytes, cudaMemcpyHostToDevice, stream_));
     };
@@ -125,9 +123,7 @@ class OptixBackendImpl final : public OptixBackend {
     write(v.selection.power_cdf, scene_.light_cdf.data(), scene_.light_cdf.size() * sizeof(float));
     write(v.selection.bvh.nodes, scene_.light_bvh.nodes.data(), scene_.light_bvh.nodes.size() * sizeof(LightBvhNode));
     write(v.selection.bvh.trails, scene_.light_bvh.trails.data(), scene_.light_bvh.trails.size() * sizeof(uint64_t));
-    std::vector<SphereView> spheres;
-    spheres.reserve(scene_.spheres.size());
-    for (const Sphere& sp : scene_.spheres) spheres.push_back(SphereView{sp.center, sp.radius, sp.material, sp.light});
+    const std::vector<SphereView> spheres = sphere_views(scene_);
     write(v.spheres, spheres.data(), spheres.size() * sizeof(SphereView));
     PN_CUDA(cudaStreamSynchronize(stream_));  // `spheres` is a host temporary
     v.selection = make_light_selection_view(scene_, v.selection.power_cdf, v.selection.bvh.nodes,
