@@ -146,6 +146,21 @@ TEST(BadInput, InstanceLimit) {
   EXPECT_EQ(s.instances.size(), 2u * 1025u);
 }
 
+// render.mis_compensation (--mis-compensation): true or false, anything else one line naming the field.
+TEST(BadInput, MisCompensationIsABoolean) {
+  EXPECT_TRUE(load_scene("glossy", {"render.mis_compensation=true"}).render.integrator.mis_compensation);
+  EXPECT_FALSE(load_scene("glossy").render.integrator.mis_compensation);
+  for (const char* bad : {"render.mis_compensation=1", "render.mis_compensation=\"yes\""}) {
+    try {
+      load_scene("glossy", {bad});
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find("mis_compensation"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("expected true or false"), std::string::npos) << e.what();
+    }
+  }
+}
+
 // --- 7. Options that don't apply -----------------------------------------------------
 
 // Render settings are overrides of the "render" block; a scene file without
