@@ -148,11 +148,11 @@ TEST(BadInput, InstanceLimit) {
 
 // render.mis_compensation (--mis-compensation): true or false, anything else one line naming the field.
 TEST(BadInput, MisCompensationIsABoolean) {
-  EXPECT_TRUE(load_scene("glossy", {"render.mis_compensation=true"}).render.integrator.mis_compensation);
-  EXPECT_FALSE(load_scene("glossy").render.integrator.mis_compensation);
+  EXPECT_TRUE(load_scene("cornell-sphere", {"render.mis_compensation=true"}).render.integrator.mis_compensation);
+  EXPECT_FALSE(load_scene("cornell-sphere").render.integrator.mis_compensation);
   for (const char* bad : {"render.mis_compensation=1", "render.mis_compensation=\"yes\""}) {
     try {
-      load_scene("glossy", {bad});
+      load_scene("cornell-sphere", {bad});
       ADD_FAILURE() << bad << " was accepted";
     } catch (const SceneError& e) {
       EXPECT_NE(std::string(e.what()).find("mis_compensation"), std::string::npos) << e.what();
