@@ -15,14 +15,16 @@
 #      starting from the corpus that step 2 grew: inputs step 2 never tries.
 #      What it finds is printed and kept under build-asan/fuzz/explore-<target>/
 #      artifacts/ but does not fail CI: reproduce it, fix it and add it to
-#      regressions/, which every later run replays. EXPLORE_SECONDS=0 skips it.
+#      regressions/, which every later run replays. It is off in CI (0 s, the
+#      default: CI's 30 minutes go to what can fail it); EXPLORE_SECONDS=60
+#      bash .ci/sanitize.sh explores a minute a target.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TARGETS=(scene obj gltf image)
-# Step 2's inputs a target: about 45 s each on a core of an idle machine, which
+# Step 2's inputs a target: about 22 s each on a core of an idle machine, which
 # runs some 11,000 scene, 8,000 OBJ, 3,300 glTF and 6,000 image inputs a second
-# under the sanitizers (README); the four took 90 s on a quiet shared two-core
-# machine, 180 to 200 s on it at a load of 4 to 7. The same build, seed and count give the
+# under the sanitizers (README); at twice these counts the four took 90 s on a
+# quiet shared two-core machine, 180 to 200 s on it at a load of 4 to 7. The same build, seed and count give the
 # same inputs (two runs, at different loads and free memory, and from parent
 # environments 5 kB apart, grew identical corpora) with: address-space
 # randomization off (setarch -R), the same environment (env -i: its size moves
@@ -33,7 +35,7 @@ TARGETS=(scene obj gltf image)
 # the first three, two such runs grew different corpora. A change to the
 # code changes its coverage, and so the inputs tried (a rebuild at another
 # commit of the same code grew the same corpora).
-declare -A FUZZ_RUNS=([scene]=500000 [obj]=360000 [gltf]=150000 [image]=270000)
+declare -A FUZZ_RUNS=([scene]=250000 [obj]=180000 [gltf]=75000 [image]=135000)
 FUZZ_SEED=${FUZZ_SEED:-1}
 # A slower input is a finding. Replayed one by one, no input of step 2's
 # corpora, the seeds or the regressions took more than 120 ms (a shared
@@ -41,16 +43,17 @@ FUZZ_SEED=${FUZZ_SEED:-1}
 # 500 times that, 60 s; step 3 10 s (it reports a slow input, CI goes on).
 FUZZ_TIMEOUT=${FUZZ_TIMEOUT:-60}
 EXPLORE_TIMEOUT=${EXPLORE_TIMEOUT:-10}
-EXPLORE_SECONDS=${EXPLORE_SECONDS:-15}
+EXPLORE_SECONDS=${EXPLORE_SECONDS:-0}
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
 t0=$SECONDS
-# -O1 -g keeps asserts and stack traces and runs fast enough; no viewer (OpenGL
+# -O1 with line tables keeps asserts and stack traces with file and line, runs
+# fast enough and compiles faster than full -g; no viewer (OpenGL
 # drivers are not built with the sanitizers), no GPU code, no Python module (an
 # instrumented extension cannot load into an uninstrumented interpreter).
 cmake -S . -B build-asan -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Debug \
-  -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" -DPENUMBRA_FUZZ=ON -DPENUMBRA_OPTIX=OFF -DPENUMBRA_VIEWER=OFF \
+  -DCMAKE_CXX_FLAGS_DEBUG="-O1 -gline-tables-only" -DPENUMBRA_FUZZ=ON -DPENUMBRA_OPTIX=OFF -DPENUMBRA_VIEWER=OFF \
   -DPENUMBRA_PYTHON=OFF >/dev/null
 cmake --build build-asan
 t_build=$((SECONDS - t0))
@@ -66,12 +69,18 @@ t_build=$((SECONDS - t0))
 # minute uninstrumented in the main stage), the closed box and MIS agreement renders
 # (ClosedBox, MisAgrees: about 380 of the 740 core-seconds this stage took, rendering
 # through the integrator that the smaller render tests drive here too; they run
-# uninstrumented in the main stage), and Intel Open Image Denoise
+# uninstrumented in the main stage), the strategies' image agreement renders
+# (StrategiesAgree: 113 of this stage's 378 test-seconds, the same integrator
+# again), the interrupted long runs (cli_robustness_long: 57 s of waiting out
+# signals and refusals, none of it new code under the sanitizers), the
+# ltc chi-square at 64 x 64 points a cell (LtcOnGlossy: the sampling code runs
+# here in StrategyOnLight), and Intel Open Image Denoise
 # (Denoise.Oidn*: a library loaded at run time, not instrumented, whose thread
-# pools outlive the test; it runs in the main stage).
+# pools outlive the test; it runs in the main stage). All of them run in the
+# main stage.
 t1=$SECONDS
 ctest --test-dir build-asan --output-on-failure -j2 --timeout 900 \
-  -E 'cli_robustness_memory|viewer_xvfb|^study_|ClosedForm|ClosedBox|MisAgrees|Denoise.Oidn'
+  -E 'cli_robustness_memory|cli_robustness_long|viewer_xvfb|^study_|ClosedForm|ClosedBox|MisAgrees|StrategiesAgree|LtcOnGlossy|Denoise.Oidn'
 t_tests=$((SECONDS - t1))
 
 # 2. Fuzzing from fixed seeds, and 3. exploration from random ones.
