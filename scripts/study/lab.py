@@ -5,11 +5,15 @@ import os
 
 from .common import checks_passed, log, write_atomic, write_text
 from .metrics import fit_extrapolated, lab_efficiency, lab_speedups, lab_threshold, light_distance, speedup
-from .planner import LAB_TECHNIQUES
+from .planner import LAB_POLYGON_SCENES, LAB_TECHNIQUES
 from .report import finish_ratio_plot, fmt, generated_by, np, plt
 
-LAB_COLORS = {"area": "#d62728", "solid-angle": "#1f77b4", "projected-solid-angle": "#2ca02c", "bsdf": "#7f7f7f"}
+LAB_COLORS = {"area": "#d62728", "solid-angle": "#1f77b4", "projected-solid-angle": "#2ca02c", "ltc": "#ff7f0e",
+              "bsdf": "#7f7f7f"}
 LAB_STYLES = {"none": "o-", "balance": "s:", "power": "^--"}
+# A table cell of a technique a scene does not run: ltc where every light is a sphere (there it samples as
+# projected-solid-angle does).
+NOT_RUN = "="
 
 
 def technique_parts(t):
@@ -61,9 +65,13 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
     w(f"- Scenes: {', '.join(r['scene'] for r in head)} at {h['width']}x{h['height']}, max depth 8, ground truth "
       f"{h['reference_spp']} spp (solid-angle with the power heuristic, its own seed), renders at 1, 2, 4, ..., "
       f"{h['max_spp']} spp with {h['seeds']} independent seeds per point.")
-    w("- Techniques: the strategies `area`, `solid-angle`, `projected-solid-angle`, each with `--mis none` (light "
+    w("- Techniques: the strategies `area`, `solid-angle`, `projected-solid-angle`, `ltc` (the GGX lobe's linearly "
+      "transformed cosine mixed with projected-solid-angle on quads and triangles; projected-solid-angle on spheres), "
+      "each with `--mis none` (light "
       "sampling only: the thesis's estimator), `balance` and `power` (one light and one BSDF sample per vertex, "
       "Veach's heuristics), and `bsdf` (no light sampling). Named `area`, `area+balance`, `area+power`, ...")
+    w("- `ltc` runs where a scene has quad or triangle lights (" + ", ".join(LAB_POLYGON_SCENES) + "): with sphere "
+      "lights only it samples exactly as `projected-solid-angle` does, and its cells read `=`.")
     w("- Time: GPU time of the launches (CUDA events) on the GPU, wall time on the CPU; per point the mean over seeds.")
     w("- **Efficiency** = 1 / (MSE x time) at the largest spp, relative to `area` (the larger, the better at equal "
       "time). **Time to quality**: time to reach the scene's RMSE target along each technique's fitted log-log line, "
@@ -86,6 +94,9 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
         sp, thr = lab_speedups(r), lab_threshold(r)
         cells = []
         for t in cols:
+            if t not in r["strategies"]:
+                cells.append(NOT_RUN)
+                continue
             # A time read off a fitted line beyond the technique's own points (its or area's) is marked, never quoted.
             mark = "†" if fit_extrapolated(r, t, thr) or fit_extrapolated(r, "area", thr) else ""
             extrapolated = extrapolated or bool(mark)
@@ -98,7 +109,8 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
         w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
         w("| --- |" + " ---: |" * len(cols))
         for r in runs:
-            w(f"| {r['scene']} | " + " | ".join(f"{fmt(lab_efficiency(r, t, key))}" for t in cols) + " |")
+            w(f"| {r['scene']} | " + " | ".join(fmt(lab_efficiency(r, t, key)) if t in r["strategies"] else NOT_RUN
+                                                 for t in cols) + " |")
     direct = sweeps.get("direct", [])
     for title, runs in (("global illumination (max depth 8)", head), ("direct lighting only (max depth 1)", direct)):
         if not runs:
@@ -110,7 +122,8 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
     w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
     w("| --- |" + " ---: |" * len(cols))
     for r in head:
-        w(f"| {r['scene']} | " + " | ".join(f"{r['strategies'][t]['ms_per_spp']:.3f}" for t in cols) + " |")
+        w(f"| {r['scene']} | " + " | ".join(f"{r['strategies'][t]['ms_per_spp']:.3f}" if t in r["strategies"]
+                                             else NOT_RUN for t in cols) + " |")
     w("\n## Per scene: RMSE at the largest spp, slopes\n")
     for r in head:
         w(f"**{r['scene']}** ({r['width']}x{r['height']}; reference noise adds RMSE {r['reference']['rmse_floor']:.4f} "
@@ -120,6 +133,8 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
         w("| --- | ---: | ---: | ---: | ---: | ---: |")
         sp = lab_speedups(r)
         for t in cols:
+            if t not in r["strategies"]:
+                continue
             js = r["strategies"][t]
             w(f"| `{t}` | {js['ms_per_spp']:.3f} | {js['points'][-1]['rmse']:.4f} | {js['fit_rmse']['slope']:.3f} | "
               f"{fmt(lab_efficiency(r, t))} | {fmt(sp[t])}x |")
@@ -177,6 +192,38 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
             e = {t: r["strategies"][t]["efficiency"] for t in ts}
             best = max(e["solid-angle"], e["bsdf"])
             w(f"| {x} | " + " | ".join(f"{e[t]:.4g}" for t in ts) + f" | {fmt(e['solid-angle+power'] / best)}x |")
+        w("")
+    for key, floor in (("roughness_polygon", "its plastic floor (F0 0.04 over a diffuse base)"),
+                       ("roughness_polygon_metal", "its floor made a metal (materials.floor.metallic=1)")):
+        runs = sweeps.get(key)
+        if not runs:
+            continue
+        ts = [t for t in LAB_TECHNIQUES if t in runs[0]["strategies"]]
+        w(f"## Roughness sweep (polygon-near, {floor}): `ltc` against the other samplers of polygons\n")
+        w("Efficiency 1 / (MSE x time) over the no-light pixels, relative to the best technique that is not `ltc` at "
+          "each roughness (the last column names it): `ltc+power` above 1 is a gain over everything else.\n")
+        fig, ax = plt.subplots(figsize=(5.8, 3.9))
+        for t in ts:
+            st, m = technique_parts(t)
+            ax.plot(lab["roughness"], [r["strategies"][t]["efficiency_nolight"] for r in runs], LAB_STYLES[m],
+                    color=LAB_COLORS[st], label=t)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("floor roughness")
+        ax.set_ylabel("efficiency 1 / (MSE x ms), no-light pixels")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=6, ncol=2)
+        fig.tight_layout()
+        figure = f"lab_sweep_{key}.png"
+        write_atomic(os.path.join(fig_dir, figure), lambda tmp: fig.savefig(tmp, dpi=110))
+        plt.close(fig)
+        w(f"![{key}](figures/{figure})\n")
+        w("| roughness | " + " | ".join(f"`{t}`" for t in ts) + " | best without ltc |")
+        w("|" + " ---: |" * (len(ts) + 1) + " --- |")
+        for x, r in zip(lab["roughness"], runs):
+            e = {t: r["strategies"][t]["efficiency_nolight"] for t in ts}
+            best = max((t for t in ts if not t.startswith("ltc")), key=lambda t: e[t])
+            w(f"| {x} | " + " | ".join(fmt(e[t] / e[best]) for t in ts) + f" | `{best}` |")
         w("")
     if os.path.exists(os.path.join(out_dir, "DISCUSSION.md")):
         w("## Discussion\n")

@@ -18,7 +18,7 @@ from .report import fmt, generated_by, matplotlib, plt
 
 MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-bvh": "#17becf",
                "restir-temporal": "#bcbd22", "restir-biased": "#9467bd", "ris-bvh": "#ff7f0e",
-               "restir-unshadowed": "#98df8a", "restir-bvh-unshadowed": "#9edae5"}
+               "restir-unshadowed": "#98df8a", "restir-bvh-unshadowed": "#9edae5", "sg-bvh": "#8c564b"}
 
 
 def many_group(plan_, head):
@@ -105,6 +105,9 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         if "many-spheres-direct" in head:
             counts.append("many-spheres-direct: many-spheres with direct lighting only, max depth 1, the setting of "
                           "the ReSTIR DI paper's numbers")
+        if "many-spheres-glossy" in head:
+            counts.append("many-spheres-glossy: many-spheres with its glossy half a metal of roughness 0.15 "
+                          "(materials.glossy.metallic=1), where a lobe sees few lamps")
         w(f"- Scenes: {', '.join(head)} ({'; '.join(counts)}) at {h['width']}x{h['height']}, max depth "
           f"8 unless said otherwise, MIS power; ground truth {h['reference_spp']} spp selected by "
           f"{h.get('reference_selection', 'power')} (solid-angle); renders at 1, 2, ..., "

@@ -50,10 +50,22 @@ LAB_PRESETS = {
                   radii=[0.05, 0.4], near_k=[2, 8], roughness=[0.05, 0.6], panel_offsets=[0.0, 1.0]),
 }
 LAB_SCENES = ["cornell-sphere", "cornell-near", "occlusion", "cornell-quad", "polygon-near", "glossy"]
-LAB_STRATEGIES = ["area", "solid-angle", "projected-solid-angle", "bsdf"]
+LAB_STRATEGIES = ["area", "solid-angle", "projected-solid-angle", "ltc", "bsdf"]
+LAB_LIGHT_STRATEGIES = [st for st in LAB_STRATEGIES if st != "bsdf"]
 MIS_MODES = ["none", "balance", "power"]
 # Technique names as `penumbra converge` writes them: "area" (MIS none), "area+power".
-LAB_TECHNIQUES = [st if m == "none" else f"{st}+{m}" for st in LAB_STRATEGIES[:3] for m in MIS_MODES] + ["bsdf"]
+LAB_TECHNIQUES = [st if m == "none" else f"{st}+{m}" for st in LAB_LIGHT_STRATEGIES for m in MIS_MODES] + ["bsdf"]
+# The lab's scenes with quad or triangle lights: where ltc runs (with sphere lights alone it is projected-solid-angle).
+LAB_POLYGON_SCENES = ["cornell-quad", "polygon-near"]
+
+
+def lab_strategies(scene):
+    return [st for st in LAB_STRATEGIES if st != "ltc" or scene in LAB_POLYGON_SCENES]
+
+
+# The polygon roughness sweep (polygon-near's glossy floor): ltc, which samples by the GGX lobe, against the
+# spherical-polygon samplers and BSDF sampling.
+LAB_POLYGON_ROUGHNESS_STRATEGIES = ["solid-angle", "projected-solid-angle", "ltc", "bsdf"]
 
 # Many lights (issue 14; many_lights.py says what is measured).
 # The ground truths select lights by the light BVH: for the same time, its noise is a fifth of power selection's.
@@ -92,8 +104,11 @@ MANY_PRESETS = {
 # scene with direct lighting only (one scattering vertex: x1's light sample and BSDF sample, MIS-weighted), the
 # setting of Bitterli et al. 2020's ReSTIR DI numbers; with global illumination the indirect light's noise, which
 # no light-selection method touches at x1, bounds what any of them can gain.
+# many-spheres-glossy makes the glossy half of the floor (and its sphere) a metal of roughness 0.15: a lobe that
+# sees few of the lamps, where sg-bvh's lobe-aware importance can gain over bvh's bound.
 MANY_SCENES = {"many-spheres": ("many-spheres", "defaults.lights", ()),
                "many-spheres-direct": ("many-spheres", "defaults.lights", ("render.max_depth=1",)),
+               "many-spheres-glossy": ("many-spheres", "defaults.lights", ("materials.glossy.metallic=1",)),
                "sponza-lanterns": ("sponza-lanterns", None, ())}
 # name -> scene overrides. restir: the paper's defaults (32 candidates by power, 2 spatial passes of 3 neighbours)
 # with pairwise MIS, unbiased (2k shadow rays a pass where the generalized balance heuristic, the renderer's default,
@@ -106,6 +121,8 @@ MANY_SELECTIONS = {
     "uniform": ["render.light_selection=uniform"],
     "power": ["render.light_selection=power"],
     "bvh": ["render.light_selection=bvh"],
+    # the light BVH weighed by the BSDF's lobes (spherical Gaussians; core/light_bvh.h)
+    "sg-bvh": ['render.light_selection="sg-bvh"'],
     "restir": ["render.light_selection=restir", "render.restir.pairwise=true"],
     "restir-bvh": ["render.light_selection=restir", "render.restir.pairwise=true", 'render.restir.source="bvh"',
                    "render.restir.candidates=8"],
@@ -125,7 +142,7 @@ MANY_SELECTIONS = {
 # Methods whose renders are not independent samples (the slope check leaves them out) or not unbiased.
 MANY_CORRELATED = {"restir-temporal"}
 MANY_STRATEGIES = ["area", "solid-angle", "projected-solid-angle"]
-MANY_SWEEP_SELECTIONS = ["power", "bvh", "ris-bvh", "restir", "restir-bvh-unshadowed"]
+MANY_SWEEP_SELECTIONS = ["power", "bvh", "sg-bvh", "ris-bvh", "restir", "restir-bvh-unshadowed"]
 # restir's parameters (--only params, on many-spheres with and without GI at the headline's size): M candidates
 # drawn by the light BVH, resampled without reuse (ris-bvh) and with unbiased pairwise reuse of unshadowed targets
 # (restir-bvh-unshadowed, the headline's most efficient restir) over p spatial passes of k neighbours. Which is
@@ -193,16 +210,16 @@ def lab_plan(args, lab, out_dir):
     The glossy scene and its sweep are optional (their model data lives in ../shared/scenes)."""
     h, sw = lab["headline"], lab["sweep"]
     scenes = LAB_SCENES if not args.scene else [s for s in LAB_SCENES if s in args.scene]
-    head = [Run(sc, sc, h, (), LAB_STRATEGIES, MIS_MODES, out_dir, "glossy" if sc == "glossy" else None)
+    head = [Run(sc, sc, h, (), lab_strategies(sc), MIS_MODES, out_dir, "glossy" if sc == "glossy" else None)
             for sc in scenes] if args.only not in ("sweeps", "params") else []
     sweeps = {}
     if args.only not in ("sweeps", "params"):
         # Direct lighting alone (one scattering vertex: what a light sampler changes), beside the headline's global
         # illumination, on the same scenes and sizes.
-        sweeps["direct"] = [Run(f"{sc}-direct", sc, h, ("render.max_depth=1",), LAB_STRATEGIES, MIS_MODES, out_dir,
+        sweeps["direct"] = [Run(f"{sc}-direct", sc, h, ("render.max_depth=1",), lab_strategies(sc), MIS_MODES, out_dir,
                                 "glossy" if sc == "glossy" else None) for sc in scenes]
     if args.only not in ("headline", "params"):
-        three = LAB_STRATEGIES[:3]
+        three = ["area", "solid-angle", "projected-solid-angle"]
         sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",), three, out_dir=out_dir)
                             for r in lab["radii"]]
         sweeps["distance"] = [Run(f"near-{k}", "cornell-near", sw, (f"light.center=[1.6,3.2,{BOX[2] - k * 0.15:.4f}]",),
@@ -211,6 +228,10 @@ def lab_plan(args, lab, out_dir):
                            for o in lab["panel_offsets"]]
         sweeps["roughness"] = [Run(f"roughness-{r}", "glossy", sw, (f"defaults.roughness={r}",), ("solid-angle", "bsdf"),
                                    MIS_MODES, out_dir, "the roughness sweep") for r in lab["roughness"]]
+        for key, name, sets in (("roughness_polygon", "polygon-roughness", ()),
+                                ("roughness_polygon_metal", "polygon-metal-roughness", ("materials.floor.metallic=1",))):
+            sweeps[key] = [Run(f"{name}-{r}", "polygon-near", sw, (f"defaults.roughness={r}",) + sets,
+                               LAB_POLYGON_ROUGHNESS_STRATEGIES, ("none", "power"), out_dir) for r in lab["roughness"]]
     return head, sweeps
 
 

@@ -17,6 +17,13 @@
 #endif
 
 #define PN_FN PN_HD PN_INLINE
+// A large function the GPU calls rather than inlines at every call site: one copy a kernel, not one a caller
+// (the compile time of kernels that hold every strategy).
+#if defined(__CUDACC__)
+#define PN_FN_CALLED __host__ __device__ __noinline__ inline
+#else
+#define PN_FN_CALLED inline
+#endif
 
 namespace pn {
 

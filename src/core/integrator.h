@@ -85,6 +85,29 @@ PN_FN LightSelection candidate_selection(const IntegratorSettings& s) {
   return s.light_selection == LightSelection::Restir ? s.restir.source : s.light_selection;
 }
 
+// Whether light sampling weighs by the BSDF's lobes: the `ltc` strategy and `sg-bvh` selection.
+PN_FN bool light_sampling_sees_lobes(const IntegratorSettings& s) {
+  return s.strategy == Strategy::Ltc || candidate_selection(s) == LightSelection::SgBvh;
+}
+
+// What the light samplers see at a shading point: the point and its shading normal, and where they weigh by the
+// BSDF's lobes (light_sampling_sees_lobes), the lobes at wo (core/lights.h).
+template <bool kSpecular = true>
+PN_FN LightSampleContext light_sample_context(const IntegratorSettings& s, Vec3 p, const Bsdf& bsdf, Vec3 wo) {
+  LightSampleContext c{p, bsdf.frame.n};
+  if (!light_sampling_sees_lobes(s)) return c;
+  const float cos_o = dot(wo, bsdf.frame.n);
+  c.wo = wo;
+  c.alpha = bsdf.alpha;
+  c.specular = kSpecular && bsdf.has_specular ? luminance(bsdf_fresnel(bsdf, cos_o)) : 0.f;
+  c.diffuse = luminance(bsdf.diffuse) * bsdf_coat_transmission<kSpecular>(bsdf, cos_o);
+  return c;
+}
+
+// Whether the previous vertex a step reads (path_reads_prev) must hold the BSDF's lobes too: for `ltc`'s pdf and
+// `sg-bvh`'s pmf.
+PN_FN bool path_reads_prev_lobes(const IntegratorSettings& s) { return light_sampling_sees_lobes(s); }
+
 // The light technique's density in MIS weights: P(light) p_light per sample,
 // times the number of candidates where restir resampled M of them (as if the
 // light technique took M samples: the weights then give the BSDF sample less
@@ -113,7 +136,7 @@ template <uint32_t kFeatures = kAllFeatures>
 PN_FN DirectSample choose_direct_sample(const SceneView& scene, const IntegratorSettings& s, const Bsdf& bsdf, Vec3 p,
                                         Vec3 wo, bool ris, float u_select, Vec2 u, Rng* rng) {
   constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
-  const LightSampleContext ctx{p, bsdf.frame.n};
+  const LightSampleContext ctx = light_sample_context<kSpecular>(s, p, bsdf, wo);
   const LightSelection method = candidate_selection(s);
   DirectSample d;
   d.ris = ris && rng;
@@ -270,10 +293,39 @@ PN_HD Reservoir make_reservoir(const Tracer& tracer, const SceneView& scene, con
 // finds needs to know (the density NEE would have had for that direction).
 // BSDFs have no delta lobes, so there is no specular flag: every BSDF sample
 // has a finite pdf and is weighed by MIS.
-struct PrevVertex {
-  LightSampleContext ctx;
+// Its light-sample context is kept field by field, the point and normal first: a
+// wavefront moves the first 32 bytes as two 16-byte words, and the lobes' 32 only
+// for `ltc` (path_reads_prev_lobes).
+struct alignas(16) PrevVertex {
+  Vec3 p, n;                     // the LightSampleContext's point and shading normal
   float bsdf_pdf = 0.f;
   float light_candidates = 1.f;  // M at restir's first vertex (restir_mis_density), else 1
+  Vec3 wo;                       // the rest of its LightSampleContext: the BSDF's lobes
+  float alpha = 1.f, specular = 0.f, diffuse = 0.f;
+
+  PN_FN static PrevVertex at(const LightSampleContext& c, float bsdf_pdf, float light_candidates = 1.f) {
+    PrevVertex v;
+    v.set_ctx(c);
+    v.bsdf_pdf = bsdf_pdf;
+    v.light_candidates = light_candidates;
+    return v;
+  }
+  PN_FN LightSampleContext ctx() const {
+    LightSampleContext c{p, n};
+    c.wo = wo;
+    c.alpha = alpha;
+    c.specular = specular;
+    c.diffuse = diffuse;
+    return c;
+  }
+  PN_FN void set_ctx(const LightSampleContext& c) {
+    p = c.p;
+    n = c.n;
+    wo = c.wo;
+    alpha = c.alpha;
+    specular = c.specular;
+    diffuse = c.diffuse;
+  }
 };
 
 // The weight of emission from light `index` found along direction w by a
@@ -281,8 +333,9 @@ struct PrevVertex {
 template <uint32_t kFeatures = kAllFeatures>
 PN_FN float bsdf_emission_weight(const SceneView& scene, const IntegratorSettings& s, const PrevVertex& prev,
                                  uint32_t index, Vec3 w) {
-  const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), prev.ctx, index) *
-                        light_pdf<kFeatures>(scene, s.strategy, load_light(scene.lights, index), prev.ctx, w,
+  const LightSampleContext ctx = prev.ctx();
+  const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), ctx, index) *
+                        light_pdf<kFeatures>(scene, s.strategy, load_light(scene.lights, index), ctx, w,
                                              environment_compensated(s));
   return mis_weight(s.mis, prev.bsdf_pdf, restir_mis_density(p_light, prev.light_candidates));
 }
@@ -464,7 +517,7 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
   if (!(bs.pdf > 0.f)) return q;
   if (depth + 1 == s.max_depth && !last_vertex_adds<kFeatures>(scene, s)) return q;  // the vertex it finds adds nothing
   st.beta *= bs.weight;
-  st.prev.ctx = LightSampleContext{hit.p, bsdf.frame.n};
+  st.prev.set_ctx(light_sample_context<(kFeatures & kFeatureSpecular) != 0>(s, hit.p, bsdf, wo));
   st.prev.bsdf_pdf = bs.pdf;
   st.prev.light_candidates = restir && depth == 0 ? float(pn_max(1u, s.restir.candidates)) : 1.f;
 

@@ -25,7 +25,9 @@ namespace pn {
   X(Bvh, "bvh", "a light BVH traversed by importance at the shading point (distance, orientation, power; "  \
                 "Conty Estevez & Kulla 2018); the environment outside it with a fixed probability")        \
   X(Restir, "restir", "ReSTIR DI (Bitterli et al. 2020): M candidates from --restir-source resampled by their " \
-                      "unshadowed contribution, spatial reuse between pixels (--restir-spatial)")
+                      "unshadowed contribution, spatial reuse between pixels (--restir-spatial)")                 \
+  X(SgBvh, "sg-bvh", "the light BVH with each node weighed by the BSDF's lobes, spherical Gaussians of the "      \
+                     "node's light and of the diffuse and GGX lobes (after Tokuyoshi et al. 2024)")
 
 enum class LightSelection : uint32_t {
 #define PN_X(e, name, desc) e,
@@ -43,7 +45,7 @@ inline const char* light_selection_name(LightSelection s) {
   };
   return int(s) < kNumLightSelections ? names[int(s)] : "?";
 }
-// The method named `name` (false: none is), and every name: "uniform, power, bvh, restir".
+// The method named `name` (false: none is), and every name: "uniform, power, bvh, restir, sg-bvh".
 inline bool find_light_selection(const std::string& name, LightSelection* out) {
   return find_enum(name, kNumLightSelections, light_selection_name, out);
 }
@@ -118,6 +120,7 @@ PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightS
   if (n == 0) return s;
   switch (method) {
     case LightSelection::Bvh:
+    case LightSelection::SgBvh:
       if (v.bvh.nodes || v.infinite_light >= 0) {
         const float p_inf = v.infinite_light >= 0 ? v.infinite_probability : 0.f;
         if (u < p_inf) {
@@ -125,7 +128,8 @@ PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightS
           s.pmf = p_inf;
           return s;
         }
-        const LightBvhPick pick = light_bvh_select(v.bvh, ctx, pn_min((u - p_inf) / (1.f - p_inf), kOneMinusEpsilon));
+        const LightBvhPick pick = light_bvh_select(v.bvh, ctx, pn_min((u - p_inf) / (1.f - p_inf), kOneMinusEpsilon),
+                                                   method == LightSelection::SgBvh);
         s.index = pick.light;
         s.pmf = pick.pmf * (1.f - p_inf);
         return s;
@@ -154,10 +158,11 @@ PN_FN float selection_pmf(const LightSelectionView& v, uint32_t n, LightSelectio
   if (i >= n) return 0.f;
   switch (method) {
     case LightSelection::Bvh:
+    case LightSelection::SgBvh:
       if (v.bvh.nodes || v.infinite_light >= 0) {
         const float p_inf = v.infinite_light >= 0 ? v.infinite_probability : 0.f;
         if (int32_t(i) == v.infinite_light) return p_inf;
-        return light_bvh_pmf(v.bvh, ctx, i) * (1.f - p_inf);
+        return light_bvh_pmf(v.bvh, ctx, i, method == LightSelection::SgBvh) * (1.f - p_inf);
       }
       [[fallthrough]];
     case LightSelection::Power:

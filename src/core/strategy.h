@@ -10,21 +10,26 @@
 
 #include "enum_names.h"
 #include "light_strategies.h"
+#include "ltc.h"
 
 namespace pn {
 
 //  X(Enum,               "cli-name",              struct,                      does NEE, description)
 #define PN_STRATEGIES(X)                                                                                           \
   X(Area, "area", AreaSampling, true,                                                                              \
-    "uniform point on the light's surface, pdf converted to solid angle (thesis strategy A)")                     \
+    "uniform point on the light's surface, pdf converted to solid angle (thesis strategy A)")                      \
   X(SolidAngle, "solid-angle", SolidAngleSampling, true,                                                           \
-    "uniform in the light's solid angle: a sphere's cone (strategy B), spherical rectangles and triangles; "      \
-    "area sampling for polygons under 3e-4 sr or over 6.22 sr")                                                   \
+    "uniform in the light's solid angle: a sphere's cone (strategy B), spherical rectangles and triangles; "       \
+    "area sampling for polygons under 3e-4 sr or over 6.22 sr")                                                    \
   X(ProjectedSolidAngle, "projected-solid-angle", ProjectedSolidAngleSampling, true,                               \
-    "density proportional to cos(theta) over the light's solid angle: a sphere's projected cap (exact); "         \
+    "density proportional to cos(theta) over the light's solid angle: a sphere's projected cap (exact); "          \
     "polygons by the bilinear cosine warp of their spherical rectangle/triangle (approximately cos-proportional)") \
   X(Bsdf, "bsdf", NoLightSampling, false,                                                                          \
-    "no light sampling: light is found only by BSDF-sampled rays (naive baseline)")
+    "no light sampling: light is found only by BSDF-sampled rays (naive baseline)")                                \
+  X(Ltc, "ltc", LtcSampling, true,                                                                                 \
+    "the BSDF's lobes: a mixture of the GGX lobe's linearly transformed cosine over quads and triangles "          \
+    "(Peters 2021) and projected-solid-angle sampling, weighed by the lobes' estimated contributions; "            \
+    "spheres by projected-solid-angle")
 
 enum class Strategy : uint32_t {
 #define PN_X(e, name, impl, nee, desc) e,

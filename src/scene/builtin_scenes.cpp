@@ -106,7 +106,8 @@ json make_polygon_near() {
   json doc = cornell_box(0.25f, {0, 0, 0});
   doc["render"]["mis"] = "power";
   doc["lights"] = json::array();
-  doc["materials"]["floor"] = {{"base_color", {0.45, 0.45, 0.47}}, {"metallic", 0}, {"roughness", 0.2}, {"specular", 0.5}};
+  doc["materials"]["floor"] = {
+      {"base_color", {0.45, 0.45, 0.47}}, {"metallic", 0}, {"roughness", "$roughness"}, {"specular", 0.5}};
   doc["materials"]["panel"] = {{"albedo", {0, 0, 0}}, {"emission", {6.0, 5.3, 4.0}}};
   doc["shapes"][0]["material"] = "floor";
   doc["shapes"].erase(6);  // the tall box: it would hide the lit wall
@@ -130,8 +131,9 @@ json make_polygon_near() {
     add(2 * i, 2 * i + 1, 2 * i + 2);
     add(2 * i + 2, 2 * i + 1, 2 * i + 3);
   }
-  // defaults.panel_z moves the panel along z (negative: away from the back wall).
-  doc["defaults"] = {{"panel_z", 0}};
+  // defaults.panel_z moves the panel along z (negative: away from the back wall); defaults.roughness is the
+  // glossy floor's.
+  doc["defaults"] = {{"panel_z", 0}, {"roughness", 0.2}};
   doc["shapes"].push_back({{"type", "mesh"}, {"positions", positions}, {"indices", indices}, {"material", "panel"},
                            {"transform", {{"translate", {0, 0, "$panel_z"}}}}});
   return doc;
@@ -364,7 +366,8 @@ const std::vector<BuiltinScene>& builtin_scenes() {
       {"cornell-near", "Cornell box with a small sphere light two radii from the back wall", make_cornell_near},
       {"occlusion", "sphere light behind two crossed layers of slats: most shadow rays are blocked", make_occlusion},
       {"cornell-quad", "the classic Cornell box with its original ceiling quad light", make_cornell_quad},
-      {"polygon-near", "a pleated panel of emissive triangles hinged at the back wall, above a glossy floor",
+      {"polygon-near", "a pleated panel of emissive triangles hinged at the back wall, above a glossy floor "
+                       "(set defaults.roughness, default 0.2, and defaults.panel_z)",
        make_polygon_near},
       {"sponza", "Dabrovic's Sponza atrium (OBJ + MTL + textures) lit by a small sphere light above its open roof",
        make_sponza},

@@ -97,7 +97,7 @@ void parse_restir(const Node& n, RestirSettings* r) {
     Node src = n.at("source");
     LightSelection m;
     if (!find_light_selection(src.string(), &m) || m == LightSelection::Restir)
-      src.fail("unknown source '" + src.string() + "' (expected one of: uniform, power, bvh)");
+      src.fail("unknown source '" + src.string() + "' (expected one of: uniform, power, bvh, sg-bvh)");
     r->source = m;
   }
 }

@@ -187,9 +187,12 @@ TEST(ManyLights, SelectionMethodsAgreeWithPower) {
       {"uniform", {}},
       {"bvh", {}},
       {"bvh", {"render.mis=none"}},
+      {"sg-bvh", {}},  // weighed by the lobes: the glossy half's GGX, the matte half's cosine
+      {"sg-bvh", {"render.mis=none"}},
       {"restir", {}},                                                         // unbiased, 2 spatial passes
       {"restir", {"render.restir.spatial_passes=0"}},                         // candidates only
       {"restir", {"render.restir.source=bvh", "render.restir.candidates=8"}},
+      {"restir", {"render.restir.source=sg-bvh", "render.restir.candidates=8"}},
       {"restir", {"render.restir.pairwise=true"}},                           // pairwise MIS in the reuse
       {"restir", {"render.restir.pairwise=true", "render.restir.visibility_reuse=false"}},  // unshadowed targets
       {"restir", {"render.restir.visibility_reuse=false"}},

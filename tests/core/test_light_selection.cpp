@@ -59,21 +59,33 @@ std::vector<float> light_powers(const std::vector<Light>& lights) {
   return p;
 }
 
-LightSampleContext random_context(Rng& r, float extent = 7.f) { return {random_point(r, extent), random_unit(r)}; }
+// A shading point; with `lobes`, the BSDF's lobes sg-bvh weighs by: a view above the surface, a GGX alpha from
+// mirror-like to rough, and lobe weights (a third of them without a diffuse lobe, a third without a specular one).
+LightSampleContext random_context(Rng& r, float extent = 7.f, bool lobes = false) {
+  LightSampleContext c{random_point(r, extent), random_unit(r)};
+  if (lobes) {
+    const Frame f = Frame::from_z(c.n);
+    c.wo = f.to_world(sample_cosine_hemisphere(r.uniform2()));
+    c.alpha = 0.01f + r.uniform() * r.uniform();
+    const int kind = int(r.uniform() * 3.f);
+    c.specular = kind == 1 ? 0.f : 0.04f + 0.96f * r.uniform();
+    c.diffuse = kind == 2 ? 0.f : r.uniform();
+  }
+  return c;
+}
 
 // Every leaf's probability by walking the whole tree: the product of the
 // child probabilities along each path, independent of any u.
-void exhaustive(const LightBvhView& v, uint32_t node, float pmf, const LightSampleContext& ctx,
-                std::vector<double>* out) {
+void exhaustive(const LightBvhView& v, uint32_t node, float pmf, const LightBvhQuery& q, std::vector<double>* out) {
   if (v.nodes[node].index & kLightBvhLeaf) {
-    if (node == 0 && !light_bvh_root_leaf_visible(v, ctx)) return;
+    if (node == 0 && !light_bvh_root_leaf_visible(v, q)) return;
     (*out)[v.nodes[node].index & ~kLightBvhLeaf] += pmf;
     return;
   }
-  const float p0 = light_bvh_first_child_probability(v, node, ctx);
+  const float p0 = light_bvh_first_child_probability(v, node, q);
   if (p0 < 0.f) return;
-  exhaustive(v, node + 1, pmf * p0, ctx, out);
-  exhaustive(v, v.nodes[node].index, pmf * (1.f - p0), ctx, out);
+  exhaustive(v, node + 1, pmf * p0, q, out);
+  exhaustive(v, v.nodes[node].index, pmf * (1.f - p0), q, out);
 }
 
 LightBvhView view_of(const LightBvh& t) { return LightBvhView{t.nodes.data(), t.trails.data()}; }
@@ -144,19 +156,20 @@ TEST(LightBvh, LightsWithoutPowerStayOutside) {
 // (ImportanceIsConservative).
 TEST(LightBvh, PmfEqualsTheTraversalsProbabilityExhaustively) {
   const int G = 1 << 14;
+  for (const bool sg : {false, true})
   for (int n : {1, 2, 3, 5, 8, 13, 40}) {
     const std::vector<Light> lights = random_lights(n, uint32_t(100 + n));
     const LightBvh t = build_light_bvh(lights, light_powers(lights));
     const LightBvhView v = view_of(t);
-    Rng r(0, 0, uint32_t(n));
+    Rng r(0, 0, uint32_t(n) + (sg ? 1000u : 0u));
     int contexts_with_light = 0;
     for (int k = 0; k < 30; ++k) {
-      const LightSampleContext ctx = random_context(r);
+      const LightSampleContext ctx = random_context(r, 7.f, sg);
       std::vector<double> walk(size_t(n), 0.0), counts(size_t(n), 0.0);
-      exhaustive(v, 0, 1.f, ctx, &walk);
+      exhaustive(v, 0, 1.f, light_bvh_query(ctx, sg), &walk);
       double sum = 0;
       for (int i = 0; i < n; ++i) {
-        const float pmf = light_bvh_pmf(v, ctx, uint32_t(i));
+        const float pmf = light_bvh_pmf(v, ctx, uint32_t(i), sg);
         EXPECT_NEAR(pmf, walk[size_t(i)], 1e-6 * std::max(1.0, walk[size_t(i)])) << "n " << n << " light " << i;
         sum += pmf;
       }
@@ -165,19 +178,19 @@ TEST(LightBvh, PmfEqualsTheTraversalsProbabilityExhaustively) {
       ++contexts_with_light;
       double none = 0;
       for (int g = 0; g < G; ++g) {
-        const LightBvhPick pick = light_bvh_select(v, ctx, (float(g) + 0.5f) / float(G));
+        const LightBvhPick pick = light_bvh_select(v, ctx, (float(g) + 0.5f) / float(G), sg);
         if (!(pick.pmf > 0.f)) {
           none += 1;
           continue;
         }
         ASSERT_LT(pick.light, uint32_t(n));
-        ASSERT_EQ(pick.pmf, light_bvh_pmf(v, ctx, pick.light)) << "the pick's pmf is not pmf()'s";
+        ASSERT_EQ(pick.pmf, light_bvh_pmf(v, ctx, pick.light, sg)) << "the pick's pmf is not pmf()'s";
         counts[pick.light] += 1;
       }
       // Each light's u form one interval of length pmf: at most one grid point
       // off at each end (and the "no light" intervals take the rest).
       for (int i = 0; i < n; ++i)
-        EXPECT_NEAR(counts[size_t(i)] / G, walk[size_t(i)], 2.0 / G + 1e-5) << "n " << n << " light " << i;
+        EXPECT_NEAR(counts[size_t(i)] / G, walk[size_t(i)], 2.0 / G + 1e-5) << "n " << n << " light " << i << " sg " << sg;
       EXPECT_NEAR(none / G, 1.0 - sum, 2.0 * n / G + 1e-5);
     }
     EXPECT_GT(contexts_with_light, 10) << "too few shading points see any light: the test checks little";
@@ -189,28 +202,30 @@ TEST(LightBvh, SelectionFrequenciesMatchPmfOnAThousandLights) {
   const std::vector<Light> lights = random_lights(1000, 77);
   const LightBvh t = build_light_bvh(lights, light_powers(lights));
   const LightBvhView v = view_of(t);
+  for (const bool sg : {false, true}) {
   Rng r(0, 0, 5);
   int tested = 0;
   for (int k = 0; k < 6; ++k) {
-    const LightSampleContext ctx = random_context(r);
+    const LightSampleContext ctx = random_context(r, 7.f, sg);
     const int N = 200000;
     // One bin per light and one for "no light".
     std::vector<double> observed(lights.size() + 1, 0.0), expected(lights.size() + 1, 0.0);
     double sum = 0;
-    for (size_t i = 0; i < lights.size(); ++i) sum += expected[i] = light_bvh_pmf(v, ctx, uint32_t(i));
+    for (size_t i = 0; i < lights.size(); ++i) sum += expected[i] = light_bvh_pmf(v, ctx, uint32_t(i), sg);
     ASSERT_LE(sum, 1.0 + 1e-4);
     if (sum == 0) continue;  // every light behind the surface: nothing to choose
     ++tested;
     expected.back() = std::max(0.0, 1.0 - sum);
     for (double& e : expected) e *= N;
     for (int s = 0; s < N; ++s) {
-      const LightBvhPick pick = light_bvh_select(v, ctx, r.uniform());
+      const LightBvhPick pick = light_bvh_select(v, ctx, r.uniform(), sg);
       observed[pick.pmf > 0.f ? pick.light : lights.size()] += 1;
     }
     const test::Chi2Result c = test::chi2_test(observed, expected);
-    EXPECT_GT(c.p_value, 1e-4) << c.message;
+    EXPECT_GT(c.p_value, 1e-4) << c.message << (sg ? " (sg)" : "");
   }
   EXPECT_GE(tested, 4);
+  }
 }
 
 // Wherever a light can send light to a shading point (some point of it on the
@@ -218,6 +233,7 @@ TEST(LightBvh, SelectionFrequenciesMatchPmfOnAThousandLights) {
 // importance never culls a contribution. Points are taken on and near the
 // lights, where the bounds are tightest.
 TEST(LightBvh, ImportanceIsConservative) {
+  for (const bool sg : {false, true})
   for (int type = 0; type < 3; ++type) {
     const std::vector<Light> lights = random_lights(60, uint32_t(7 + type), 3.f, type);
     const LightBvh t = build_light_bvh(lights, light_powers(lights));
@@ -225,7 +241,7 @@ TEST(LightBvh, ImportanceIsConservative) {
     Rng r(0, 0, uint32_t(11 + type));
     int contributing = 0;
     for (int k = 0; k < 300; ++k) {
-      LightSampleContext ctx = random_context(r, 4.f);
+      LightSampleContext ctx = random_context(r, 4.f, sg);
       if (k % 3 == 0) {  // close to a light: just off its surface
         const Light& l = lights[size_t(r.uniform() * lights.size()) % lights.size()];
         ctx.p = l.p + (l.type == LightType::Sphere ? random_unit(r) * (l.radius * 1.01f) : l.e1 * 0.3f + l.n * 1e-3f);
@@ -241,7 +257,7 @@ TEST(LightBvh, ImportanceIsConservative) {
         }
         if (!contributes) continue;
         ++contributing;
-        EXPECT_GT(light_bvh_pmf(v, ctx, uint32_t(i)), 0.f) << "type " << type << ", light " << i;
+        EXPECT_GT(light_bvh_pmf(v, ctx, uint32_t(i), sg), 0.f) << "type " << type << ", light " << i << ", sg " << sg;
       }
     }
     EXPECT_GT(contributing, 1000);
@@ -394,8 +410,8 @@ test::MeanEstimator field_irradiance(const SphereField& field, const IntegratorS
       for (uint32_t k = 0; bs.pdf > 0.f && k < scene.num_lights; ++k) {
         float t;
         if (!sphere_light_distance(field.lights[k], x, bs.wi, &t, false)) continue;
-        const PrevVertex prev{LightSampleContext{x, white.frame.n}, bs.pdf,
-                              ris ? float(s.restir.candidates) : 1.f};
+        const PrevVertex prev =
+            PrevVertex::at(LightSampleContext{x, white.frame.n}, bs.pdf, ris ? float(s.restir.candidates) : 1.f);
         e += kPi * field.lights[k].radiance.x * bs.weight.x * bsdf_emission_weight(scene, s, prev, k, bs.wi);
       }
     }

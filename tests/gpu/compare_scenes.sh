@@ -21,10 +21,14 @@ techniques=${GPU_TEST_TECHNIQUES:-"area:none area:balance area:power solid-angle
   solid-angle:power projected-solid-angle:none projected-solid-angle:balance projected-solid-angle:power bsdf:none"}
 techniques=$(xargs <<<"$techniques")  # one line
 # Techniques a scene adds to the list: glossy's sky with MIS compensation (--mis-compensation), written
-# strategy:MIS-compensated.
+# strategy:MIS-compensated; ltc where polygon lights meet glossy surfaces (on a Lambertian surface or a sphere
+# light it samples as projected-solid-angle does). Its pdf on the GPU reads the previous vertex's lobes, which the
+# wavefront moves only for ltc: MIS balance and power test that.
 scene_techniques() {
   case $1 in
     glossy) echo "solid-angle:power-compensated" ;;
+    polygon-near) echo "ltc:none ltc:balance ltc:power" ;;
+    cornell-quad) echo "ltc:power" ;;
   esac
 }
 # A technique's MIS options.
@@ -38,7 +42,7 @@ mis_args() {
 same_seed_techniques() {
   case $1 in
     cornell-sphere) echo "solid-angle:none projected-solid-angle:power" ;;
-    polygon-near) echo "solid-angle:power" ;;
+    polygon-near) echo "solid-angle:power ltc:power" ;;
     cornell-quad) echo "projected-solid-angle:balance" ;;
     glossy) echo "solid-angle:power solid-angle:power-compensated" ;;
     sponza) echo "solid-angle:power" ;;

@@ -64,7 +64,7 @@ if [[ ${methods[0]:-} == --part ]]; then
   [[ $part =~ ^[1-9][0-9]*/[1-9][0-9]*$ ]] || { echo "$title: --part K/N, not '$part'"; exit 2; }
 fi
 selections=${methods[*]}
-[[ -n $selections ]] || selections="uniform bvh restir restir:--restir-spatial=0
+[[ -n $selections ]] || selections="uniform bvh sg-bvh restir restir:--restir-spatial=0
   restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise
   restir:--restir-pairwise,--restir-unshadowed restir:--restir-unshadowed,--restir-source=bvh,--restir-candidates=8
   restir:--restir-biased restir:--restir-temporal restir:--megakernel,--restir-spatial=0"

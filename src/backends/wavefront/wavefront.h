@@ -273,14 +273,16 @@ PN_FN uint64_t wavefront_bytes(uint32_t capacity) {
          2u * kShadowCells * 4u + 2u * kRayCells * 4u;
 }
 
-// --- 32-byte records -------------------------------------------------------------------------------------------
+// --- 16-byte words -----------------------------------------------------------------------------------------------
 
-// TraceRay and PrevVertex move as two 16-byte accesses on the GPU. Copied as structs of Vec3s they moved a
+// TraceRay and PrevVertex move as 16-byte accesses on the GPU (PrevVertex two, four for ltc). Copied as structs of Vec3s they moved a
 // float at a time: eight 4-byte accesses, each spanning its warp's 1 KiB (ncu, commit cf489d0: three quarters of the
 // shade kernel's L2 sectors were excess ones of these).
-static_assert(sizeof(PrevVertex) == 32 && offsetof(PrevVertex, bsdf_pdf) == 24 &&
-                  offsetof(PrevVertex, light_candidates) == 28,
-              "PrevVertex is two 16-byte words: p, n.x | n.y, n.z, bsdf_pdf, light_candidates");
+static_assert(sizeof(PrevVertex) == 64 && offsetof(PrevVertex, bsdf_pdf) == 24 &&
+                  offsetof(PrevVertex, light_candidates) == 28 && offsetof(PrevVertex, wo) == 32 &&
+                  offsetof(PrevVertex, specular) == 48,
+              "PrevVertex is four 16-byte words: p, n.x | n.y, n.z, bsdf_pdf, light_candidates | wo, alpha | "
+              "specular, diffuse");
 
 PN_FN Ray load_trace_ray(const TraceRay* p, float* tmax = nullptr) {
 #if defined(__CUDA_ARCH__)
@@ -308,27 +310,41 @@ PN_FN void store_trace_ray(TraceRay* p, const Ray& r, float tmax) {
 #endif
 }
 
-PN_FN PrevVertex load_prev(const PrevVertex* p) {
+// The previous vertex: its first two words, and its BSDF's lobes (the last two) where `lobes` (ltc).
+PN_FN PrevVertex load_prev(const PrevVertex* p, bool lobes) {
 #if defined(__CUDA_ARCH__)
   const float4* q = reinterpret_cast<const float4*>(p);
   const float4 a = q[0], b = q[1];
   PrevVertex v;
-  v.ctx.p = Vec3(a.x, a.y, a.z);
-  v.ctx.n = Vec3(a.w, b.x, b.y);
+  v.p = Vec3(a.x, a.y, a.z);
+  v.n = Vec3(a.w, b.x, b.y);
   v.bsdf_pdf = b.z;
   v.light_candidates = b.w;
+  if (lobes) {
+    const float4 c = q[2], d = q[3];
+    v.wo = Vec3(c.x, c.y, c.z);
+    v.alpha = c.w;
+    v.specular = d.x;
+    v.diffuse = d.y;
+  }
   return v;
 #else
+  (void)lobes;
   return *p;
 #endif
 }
 
-PN_FN void store_prev(PrevVertex* p, const PrevVertex& v) {
+PN_FN void store_prev(PrevVertex* p, const PrevVertex& v, bool lobes) {
 #if defined(__CUDA_ARCH__)
   float4* q = reinterpret_cast<float4*>(p);
-  q[0] = make_float4(v.ctx.p.x, v.ctx.p.y, v.ctx.p.z, v.ctx.n.x);
-  q[1] = make_float4(v.ctx.n.y, v.ctx.n.z, v.bsdf_pdf, v.light_candidates);
+  q[0] = make_float4(v.p.x, v.p.y, v.p.z, v.n.x);
+  q[1] = make_float4(v.n.y, v.n.z, v.bsdf_pdf, v.light_candidates);
+  if (lobes) {
+    q[2] = make_float4(v.wo.x, v.wo.y, v.wo.z, v.alpha);
+    q[3] = make_float4(v.specular, v.diffuse, 0.f, 0.f);
+  }
 #else
+  (void)lobes;
   *p = v;
 #endif
 }
@@ -343,13 +359,13 @@ PN_FN void store_prev(PrevVertex* p, const PrevVertex& v) {
 // whose step adds nothing reads and writes no radiance (tests/core/test_path_schedule.cpp: the same image bit for bit
 // as the depth-first driver's). The
 // previous vertex moves only where a step reads it (path_reads_prev: MIS).
-PN_FN PathState load_path(const WavefrontView& w, uint32_t slot, const TraceRay* ray, bool prev) {
+PN_FN PathState load_path(const WavefrontView& w, uint32_t slot, const TraceRay* ray, bool prev, bool lobes) {
   PathState st;
   st.ray = load_trace_ray(ray);
   st.beta = w.pool.beta[slot];
   st.L = Vec3(0.f);
   st.rng = w.pool.rng[slot];
-  if (prev) st.prev = load_prev(w.pool.prev + slot);
+  if (prev) st.prev = load_prev(w.pool.prev + slot, lobes);
   st.depth = w.pool.depth[slot];
   st.active = 1;
   return st;
@@ -367,10 +383,10 @@ PN_FN uint32_t item_pixel(const WavefrontView& w, uint32_t slot) {
 
 // The state a path keeps in the pool besides its radiance (the ray goes to a queue); the previous vertex only
 // where a step will read it (path_reads_prev).
-PN_FN void store_state(const WavefrontView& w, uint32_t slot, const PathState& st, bool prev) {
+PN_FN void store_state(const WavefrontView& w, uint32_t slot, const PathState& st, bool prev, bool lobes) {
   w.pool.beta[slot] = st.beta;
   w.pool.rng[slot] = st.rng;
-  if (prev) store_prev(w.pool.prev + slot, st.prev);
+  if (prev) store_prev(w.pool.prev + slot, st.prev, lobes);
   w.pool.depth[slot] = st.depth;
 }
 
@@ -399,7 +415,7 @@ PN_FN void generate_camera_ray(uint32_t i, const WavefrontView& w, const Camera&
   PathState st = start_path(camera, int(pixel % width), int(pixel / width),
                             wave.first_sample + uint32_t(k / wave.pixels), wave.seed,
                             w.restir.pixels ? &out : nullptr);
-  store_state(w, i, st, path_reads_prev(s));
+  store_state(w, i, st, path_reads_prev(s), path_reads_prev_lobes(s));
   w.pool.L[i] = st.L;
   w.pool.rays[i] = 1;
   store_trace_ray(w.ray[0].rays + i, st.ray, kInf);
@@ -447,7 +463,8 @@ PN_FN void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
   const RayQueue& in = w.ray[cur];
   const uint32_t slot = in.slot[j];
   const bool prev = path_reads_prev(s);
-  PathState st = load_path(w, slot, in.rays + j, prev);
+  const bool lobes = path_reads_prev_lobes(s);
+  PathState st = load_path(w, slot, in.rays + j, prev, lobes);
   const bool ordered = w.shadow_order.cell_count && st.depth >= kShadowOrderDepth;
   const HitRecord rec = w.hits[j];
   ShadowQuery q;
@@ -478,7 +495,7 @@ PN_FN void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
     if (w.ray_order.cell_count) queue_order_count(w.ray_order, kn, ray_order_cell(w.ray_order, st.ray));
   }
   const uint32_t rays = uint32_t(query) + uint32_t(next);
-  store_state(w, slot, st, prev);
+  store_state(w, slot, st, prev, lobes);
   add_radiance(w, slot, st.L);
   if (rays) w.pool.rays[slot] += rays;
 }

@@ -130,8 +130,9 @@ __global__ void __launch_bounds__(kBlock) orders_place_kernel(int next, bool ray
 // light BVH and restir, and of MIS where it is off, is not there to take registers. Sponza's shading kernel spilled
 // 572 bytes a thread; compiled for solid-angle without MIS, 152 (commit a6913f3, H200: Sponza's shading 2.47 -> 1.76 ms
 // a sample; sponza 8.82 -> 8.11 ms, cornell-sphere 1.84 -> 1.69, with MIS 9.28 -> 8.53 and 1.98 -> 1.83). Other
-// configurations (the light BVH, restir) take the kernel compiled for any (kAnyStrategy). 24 kernels: this file
-// compiles in about a minute.
+// configurations (the light BVH, restir) take the kernel compiled for any (kAnyStrategy), and so does ltc: its code
+// (two polygon form factors, two samplers and their pdfs) in six kernels of its own took this file's compilation from
+// about a minute to three, and that time is on CI's critical path. 24 kernels: this file compiles in about a minute.
 constexpr uint32_t kAnyStrategy = ~0u;
 enum ShadeMis : uint32_t { kShadeMisNone, kShadeMisWeighted, kShadeMisAny };
 
@@ -160,7 +161,7 @@ __global__ void __launch_bounds__(kBlock, 2) shade_kernel(int cur) {
 // Which shading kernel a configuration takes: its strategy and MIS class where lights are chosen simply, else any.
 ShadeKernelKey shade_kernel_key(const IntegratorSettings& s) {
   const bool simple = s.light_selection == LightSelection::Uniform || s.light_selection == LightSelection::Power;
-  if (!simple) return {kAnyStrategy, kShadeMisAny};
+  if (!simple || s.strategy == Strategy::Ltc) return {kAnyStrategy, kShadeMisAny};
   if (!strategy_uses_nee(s.strategy)) return {uint32_t(s.strategy), kShadeMisAny};
   return {uint32_t(s.strategy), s.mis == Mis::None ? kShadeMisNone : kShadeMisWeighted};
 }
@@ -174,7 +175,9 @@ void launch_shade(const ShadeKernelKey& k, unsigned grid, cudaStream_t stream, i
   switch (Strategy(k.strategy)) {
 #define PN_X(e, name, impl, nee, desc)                                                                  \
   case Strategy::e:                                                                                     \
-    if constexpr (!(nee)) {                                                                             \
+    if constexpr (Strategy::e == Strategy::Ltc) {                                                       \
+      shade_kernel<kLevel, kAnyStrategy, kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);               \
+    } else if constexpr (!(nee)) {                                                                      \
       shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);      \
     } else if (k.mis == kShadeMisNone) {                                                                \
       shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisNone><<<grid, kBlock, 0, stream>>>(cur);     \
