@@ -10,7 +10,8 @@ packages=(
   libcli11-dev           # command line
   libstb-dev             # PNG output; PNG, BMP, TGA and HDR textures
   libjpeg-dev            # JPEG textures (libjpeg-turbo)
-  libtinyexr-dev         # EXR output
+  libtinyexr-dev         # EXR input (EXR output is penumbra's own, src/io/exr_write.cpp)
+  zlib1g-dev             # EXR output's ZIP compression
   libtinyobjloader-dev   # OBJ meshes
   libtinygltf-dev        # glTF 2.0 models (header; compiled in src/scene/tinygltf_impl.cpp)
   assimp-testmodels      # tests: real OBJ and glTF files made by others (tests/scene/test_models.cpp)

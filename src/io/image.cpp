@@ -10,6 +10,7 @@
 #include <stb/stb_image_write.h>
 #include <tinyexr.h>
 
+#include "io/exr_write.h"
 #include "io/output.h"
 
 namespace pn {
@@ -51,53 +52,6 @@ std::vector<uint8_t> encode_png(const std::string& path, int width, int height, 
 
 namespace {
 
-// tinyexr's SaveEXR, into memory: float32 RGB planes in the B, G, R order most
-// readers expect, ZIP-compressed (uncompressed below 16x16, as SaveEXR does).
-// `use` gets tinyexr's buffer, freed after it returns (a large image is not
-// copied once more).
-void with_exr(const std::string& path, int width, int height, const std::vector<float>& rgb,
-              const std::function<void(const uint8_t*, size_t)>& use) {
-  const size_t n = size_t(width) * size_t(height);
-  std::vector<float> planes[3];
-  for (int c = 0; c < 3; ++c) {
-    planes[c].resize(n);
-    for (size_t i = 0; i < n; ++i) planes[c][i] = rgb[3 * i + size_t(c)];
-  }
-  float* ptr[3] = {planes[2].data(), planes[1].data(), planes[0].data()};  // B, G, R
-  EXRImage image;
-  InitEXRImage(&image);
-  image.num_channels = 3;
-  image.images = reinterpret_cast<unsigned char**>(ptr);
-  image.width = width;
-  image.height = height;
-  EXRHeader header;
-  InitEXRHeader(&header);
-  header.compression_type = (width < 16 && height < 16) ? TINYEXR_COMPRESSIONTYPE_NONE : TINYEXR_COMPRESSIONTYPE_ZIP;
-  EXRChannelInfo channels[3] = {};
-  int types[3] = {TINYEXR_PIXELTYPE_FLOAT, TINYEXR_PIXELTYPE_FLOAT, TINYEXR_PIXELTYPE_FLOAT};
-  const char* names[3] = {"B", "G", "R"};
-  for (int c = 0; c < 3; ++c) std::snprintf(channels[c].name, sizeof channels[c].name, "%s", names[c]);
-  header.num_channels = 3;
-  header.channels = channels;
-  header.pixel_types = types;
-  header.requested_pixel_types = types;
-  unsigned char* mem = nullptr;
-  const char* err = nullptr;
-  size_t size = SaveEXRImageToMemory(&image, &header, &mem, &err);
-  if (size == 0 || !mem) {
-    std::string msg = err ? err : "unknown error";
-    if (err) FreeEXRErrorMessage(err);
-    if (mem) free(mem);
-    throw std::runtime_error(path + ": cannot encode EXR: " + msg);
-  }
-  for (auto& p : planes) std::vector<float>().swap(p);  // not needed while the bytes are used
-  struct Free {
-    unsigned char* m;
-    ~Free() { free(m); }
-  } owned{mem};
-  use(mem, size);
-}
-
 std::vector<uint8_t> png_of(const std::string& path, int width, int height, const std::vector<float>& rgb,
                             float exposure_stops) {
   const float scale = std::exp2(exposure_stops);
@@ -113,8 +67,8 @@ void write_image(const std::string& path, int width, int height, const std::vect
   const std::string ext = extension(path);
   if (rgb.size() != size_t(width) * height * 3) throw std::logic_error("write_image: buffer size mismatch");
   if (ext == "exr") {
-    with_exr(path, width, height, rgb,
-             [&](const uint8_t* bytes, size_t size) { write_file_atomic(path, bytes, size); });
+    const std::vector<uint8_t> bytes = encode_exr(width, height, rgb);
+    write_file_atomic(path, bytes.data(), bytes.size());
   } else if (ext == "png") {
     const std::vector<uint8_t> bytes = png_of(path, width, height, rgb, exposure_stops);
     write_file_atomic(path, bytes.data(), bytes.size());
