@@ -295,7 +295,7 @@ PN_HD Reservoir make_reservoir(const Tracer& tracer, const SceneView& scene, con
 // has a finite pdf and is weighed by MIS.
 // Its light-sample context is kept field by field, the point and normal first: a
 // wavefront moves the first 32 bytes as two 16-byte words, and the lobes' 32 only
-// for `ltc` (path_reads_prev_lobes).
+// where light sampling weighs by them (path_reads_prev_lobes: ltc, sg-bvh).
 struct alignas(16) PrevVertex {
   Vec3 p, n;                     // the LightSampleContext's point and shading normal
   float bsdf_pdf = 0.f;

@@ -92,12 +92,13 @@ PN_FN Light load_light(const Light* lights, uint32_t i) {
 // (on the side the light is sampled for). Area and solid-angle sampling use
 // only p; projected-solid-angle sampling weights directions by max(0, n . w).
 //
-// The `ltc` strategy (core/ltc.h) also samples by the BSDF's lobes: the view
-// direction wo, the GGX alpha, and the luminances of the specular lobe's
-// Fresnel weight F(cos_o) and of the diffuse lobe's albedo at wo (specular = 0:
-// no specular lobe, and `ltc` samples as projected-solid-angle does). Every
-// other strategy and the light selection ignore them
-// (light_sample_context, core/integrator.h, fills them for `ltc` only).
+// The `ltc` strategy (core/ltc.h) and `sg-bvh` selection (core/light_bvh.h)
+// also weigh by the BSDF's lobes: the view direction wo, the GGX alpha, and
+// the luminances of the specular lobe's Fresnel weight F(cos_o) and of the
+// diffuse lobe's albedo at wo (specular = 0: no specular lobe, and `ltc`
+// samples as projected-solid-angle does). Every other strategy and selection
+// ignores them (light_sample_context, core/integrator.h, fills them for those
+// two only).
 struct LightSampleContext {
   Vec3 p;
   Vec3 n;

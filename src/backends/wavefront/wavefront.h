@@ -275,9 +275,10 @@ PN_FN uint64_t wavefront_bytes(uint32_t capacity) {
 
 // --- 16-byte words -----------------------------------------------------------------------------------------------
 
-// TraceRay and PrevVertex move as 16-byte accesses on the GPU (PrevVertex two, four for ltc). Copied as structs of Vec3s they moved a
-// float at a time: eight 4-byte accesses, each spanning its warp's 1 KiB (ncu, commit cf489d0: three quarters of the
-// shade kernel's L2 sectors were excess ones of these).
+// TraceRay and PrevVertex move as 16-byte accesses on the GPU (PrevVertex two, four where light sampling weighs by
+// the BSDF's lobes: ltc, sg-bvh). Copied as structs of Vec3s they moved a float at a time: eight 4-byte accesses,
+// each spanning its warp's 1 KiB (ncu, commit cf489d0: three quarters of the shade kernel's L2 sectors were excess
+// ones of these).
 static_assert(sizeof(PrevVertex) == 64 && offsetof(PrevVertex, bsdf_pdf) == 24 &&
                   offsetof(PrevVertex, light_candidates) == 28 && offsetof(PrevVertex, wo) == 32 &&
                   offsetof(PrevVertex, specular) == 48,
@@ -310,7 +311,8 @@ PN_FN void store_trace_ray(TraceRay* p, const Ray& r, float tmax) {
 #endif
 }
 
-// The previous vertex: its first two words, and its BSDF's lobes (the last two) where `lobes` (ltc).
+// The previous vertex: its first two words, and its BSDF's lobes (the last two) where `lobes`
+// (path_reads_prev_lobes: ltc, sg-bvh).
 PN_FN PrevVertex load_prev(const PrevVertex* p, bool lobes) {
 #if defined(__CUDA_ARCH__)
   const float4* q = reinterpret_cast<const float4*>(p);

@@ -131,8 +131,9 @@ __global__ void __launch_bounds__(kBlock) orders_place_kernel(int next, bool ray
 // 572 bytes a thread; compiled for solid-angle without MIS, 152 (commit a6913f3, H200: Sponza's shading 2.47 -> 1.76 ms
 // a sample; sponza 8.82 -> 8.11 ms, cornell-sphere 1.84 -> 1.69, with MIS 9.28 -> 8.53 and 1.98 -> 1.83). Other
 // configurations (the light BVH, restir) take the kernel compiled for any (kAnyStrategy), and so does ltc: its code
-// (two polygon form factors, two samplers and their pdfs) in six kernels of its own took this file's compilation from
-// about a minute to three, and that time is on CI's critical path. 24 kernels: this file compiles in about a minute.
+// (two polygon form factors, two samplers and their pdfs) in six kernels of its own, all inlined, took this file's
+// compilation from 36 s to 174 s on a two-core machine, on CI's critical path; with ltc's mixture and sg-bvh's
+// importance called rather than inlined (PN_FN_CALLED), 71 s. 24 kernels.
 constexpr uint32_t kAnyStrategy = ~0u;
 enum ShadeMis : uint32_t { kShadeMisNone, kShadeMisWeighted, kShadeMisAny };
 
