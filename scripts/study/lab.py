@@ -52,6 +52,23 @@ def plot_lab_sweep(xs, runs, techniques, xlabel, title, path, log_x=True):
     finish_ratio_plot(fig, ax, xlabel, "efficiency relative to area (MIS none)", title, path, log_x, 7)
 
 
+def plot_roughness_sweep(xs, runs, techniques, key, xlabel, ylabel, path):
+    """Each technique's efficiency (summary key `key`) against roughness, log-log."""
+    fig, ax = plt.subplots(figsize=(5.8, 3.9))
+    for t in techniques:
+        st, m = technique_parts(t)
+        ax.plot(xs, [r["strategies"][t][key] for r in runs], LAB_STYLES[m], color=LAB_COLORS[st], label=t)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
+    plt.close(fig)
+
+
 def write_lab_report(args, lab, head, sweeps, out_dir):
     fig_dir = os.path.join(out_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
@@ -171,20 +188,8 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
     if sweeps.get("roughness"):
         w("## Roughness sweep (glossy): MIS against the single techniques\n")
         ts = ["solid-angle", "bsdf", "solid-angle+balance", "solid-angle+power"]
-        fig, ax = plt.subplots(figsize=(5.8, 3.9))
-        for t in ts:
-            st, m = technique_parts(t)
-            ax.plot(lab["roughness"], [r["strategies"][t]["efficiency"] for r in sweeps["roughness"]], LAB_STYLES[m],
-                    color=LAB_COLORS[st], label=t)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("roughness")
-        ax.set_ylabel("efficiency 1 / (MSE x ms)")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        write_atomic(os.path.join(fig_dir, "lab_sweep_roughness.png"), lambda tmp: fig.savefig(tmp, dpi=110))
-        plt.close(fig)
+        plot_roughness_sweep(lab["roughness"], sweeps["roughness"], ts, "efficiency", "roughness",
+                             "efficiency 1 / (MSE x ms)", os.path.join(fig_dir, "lab_sweep_roughness.png"))
         w("![roughness](figures/lab_sweep_roughness.png)\n")
         w("| roughness | " + " | ".join(f"`{t}`" for t in ts) + " | power / best single |")
         w("|" + " ---: |" * (len(ts) + 2))
@@ -202,21 +207,9 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
         w(f"## Roughness sweep (polygon-near, {floor}): `ltc` against the other samplers of polygons\n")
         w("Efficiency 1 / (MSE x time) over the no-light pixels, relative to the best technique that is not `ltc` at "
           "each roughness (the last column names it): `ltc+power` above 1 is a gain over everything else.\n")
-        fig, ax = plt.subplots(figsize=(5.8, 3.9))
-        for t in ts:
-            st, m = technique_parts(t)
-            ax.plot(lab["roughness"], [r["strategies"][t]["efficiency_nolight"] for r in runs], LAB_STYLES[m],
-                    color=LAB_COLORS[st], label=t)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("floor roughness")
-        ax.set_ylabel("efficiency 1 / (MSE x ms), no-light pixels")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=6, ncol=2)
-        fig.tight_layout()
         figure = f"lab_sweep_{key}.png"
-        write_atomic(os.path.join(fig_dir, figure), lambda tmp: fig.savefig(tmp, dpi=110))
-        plt.close(fig)
+        plot_roughness_sweep(lab["roughness"], runs, ts, "efficiency_nolight", "floor roughness",
+                             "efficiency 1 / (MSE x ms), no-light pixels", os.path.join(fig_dir, figure))
         w(f"![{key}](figures/{figure})\n")
         w("| roughness | " + " | ".join(f"`{t}`" for t in ts) + " | best without ltc |")
         w("|" + " ---: |" * (len(ts) + 1) + " --- |")
