@@ -170,15 +170,18 @@ struct SgLobes {
   float norm_s = 0.f;            // 1 / its integral
 };
 
+// 1 - exp(-2 l) for l >= 0: 1 in float beyond l = 9 (exp(-18) < 2^-24), where the exponential is skipped.
+PN_FN float sg_one_minus_exp2(float l) { return l > 9.f ? 1.f : -std::expm1(-2.f * l); }
+
 // The integral over the sphere of exp(l1 (w . a1 - 1)) exp(l2 (w . a2 - 1)), a1, a2 unit:
 // 2 pi exp(lm - l1 - l2) (1 - exp(-2 lm)) / lm with lm = |l1 a1 + l2 a2|.
 PN_FN float sg_product_integral(Vec3 a1, float l1, Vec3 a2, float l2) {
   const float lm = length(a1 * l1 + a2 * l2);
   if (!(lm > 1e-4f)) return 4.f * kPi * std::exp(-l1 - l2);  // the product is constant: exp(-l1 - l2)
-  return kTwoPi * std::exp(lm - l1 - l2) * (-std::expm1(-2.f * lm)) / lm;
+  return kTwoPi * std::exp(lm - l1 - l2) * sg_one_minus_exp2(lm) / lm;
 }
 // The integral of exp(l (w . a - 1)) over the sphere.
-PN_FN float sg_integral(float l) { return l > 1e-4f ? kTwoPi * (-std::expm1(-2.f * l)) / l : 4.f * kPi; }
+PN_FN float sg_integral(float l) { return l > 1e-4f ? kTwoPi * sg_one_minus_exp2(l) / l : 4.f * kPi; }
 
 constexpr float kSgCosineSharpness = 2.133f, kSgCosineAmplitude = 1.17f;
 
@@ -209,8 +212,9 @@ PN_FN_CALLED float light_bvh_importance_sg(const LightBvhNode& b, Vec3 p, const 
   const float lambda_l = 2.f / pn_max(sin2_b, 1e-12f);
   const Vec3 a_l = dist2 > 0.f ? to_c * pn_rsqrt(dist2) : lobes.n;
   const float norm_l = 1.f / sg_integral(lambda_l);
-  float f = lobes.diffuse * (kInvPi * kSgCosineAmplitude) *
-            sg_product_integral(a_l, lambda_l, lobes.n, kSgCosineSharpness);
+  float f = 0.f;
+  if (lobes.diffuse > 0.f)
+    f = lobes.diffuse * (kInvPi * kSgCosineAmplitude) * sg_product_integral(a_l, lambda_l, lobes.n, kSgCosineSharpness);
   if (lobes.specular > 0.f) f += lobes.specular * lobes.norm_s * sg_product_integral(a_l, lambda_l, lobes.r, lobes.lambda_s);
   f *= norm_l;
   // The bound keeps its best-case cosine at the receiver (1 for a node that reaches over the normal): the SG
