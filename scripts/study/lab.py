@@ -135,6 +135,23 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
         for key, pixels in (("efficiency", "all pixels"), ("efficiency_nolight", "no-light pixels")):
             w(f"\n## Efficiency (1 / (MSE x time)) relative to `area`: {title}, {pixels}\n")
             efficiency_table(runs, key)
+    comp = sweeps.get("compensation", [])
+    plain = [r for r in head if r["scene"] == "glossy"]
+    if comp and plain:
+        c, p = comp[0], plain[0]
+        w("\n## MIS compensation of glossy's sky (Karlik et al. 2019): compensated over plain\n")
+        w("The environment's light samples drawn from its MIS-compensated distribution (`--mis-compensation`: the "
+          "image's density less its mean, where BSDF sampling covers the rest), against the plain distribution, same "
+          "technique and size; efficiency 1 / (MSE x time), global illumination.\n")
+        w("| technique | all pixels | no-light pixels | ms per spp, compensated / plain |")
+        w("| --- | ---: | ---: | ---: |")
+        for t in c["strategies"]:
+            if t not in p["strategies"]:
+                continue
+            a, b = c["strategies"][t], p["strategies"][t]
+            w(f"| `{t}` | {fmt(a['efficiency'] / b['efficiency'])}x | "
+              f"{fmt(a['efficiency_nolight'] / b['efficiency_nolight'])}x | "
+              f"{a['ms_per_spp']:.3f} / {b['ms_per_spp']:.3f} |")
     w("\n## Cost: ms per spp\n")
     w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
     w("| --- |" + " ---: |" * len(cols))

@@ -218,6 +218,11 @@ def lab_plan(args, lab, out_dir):
         # illumination, on the same scenes and sizes.
         sweeps["direct"] = [Run(f"{sc}-direct", sc, h, ("render.max_depth=1",), lab_strategies(sc), MIS_MODES, out_dir,
                                 "glossy" if sc == "glossy" else None) for sc in scenes]
+        # glossy's sky sampled by its MIS-compensated distribution (Karlik et al. 2019), beside the headline's.
+        if "glossy" in scenes:
+            sweeps["compensation"] = [Run("glossy-compensated", "glossy", h, ("render.mis_compensation=true",),
+                                          ("solid-angle", "projected-solid-angle"), ("balance", "power"), out_dir,
+                                          "glossy")]
     if args.only not in ("headline", "params"):
         three = ["area", "solid-angle", "projected-solid-angle"]
         sweeps["radius"] = [Run(f"radius-{r}", "cornell-sphere", sw, (f"light.radius={r}",), three, out_dir=out_dir)

@@ -209,7 +209,8 @@ Setup prepare(const ConvergeOptions& a) {
   // for every method compared; a selection other than power is in the key.
   json key_doc = s.doc;
   if (key_doc.contains("render") && key_doc["render"].is_object())
-    for (const char* k : {"spp", "strategy", "mis", "seed", "light_selection", "restir"}) key_doc["render"].erase(k);
+    for (const char* k : {"spp", "strategy", "mis", "mis_compensation", "seed", "light_selection", "restir"})
+      key_doc["render"].erase(k);
   std::ostringstream key;
   key << std::hex
       << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(s.ref_technique) +
@@ -241,6 +242,7 @@ FrameSpec reference_frame(const Setup& s) {
   f.integrator.strategy = s.ref_technique.strategy;
   f.integrator.mis = s.ref_technique.mis;
   f.integrator.light_selection = s.ref_selection;
+  f.integrator.mis_compensation = false;  // the runs' setting, not the reference's (and not in its key)
   f.seed = kRefSeed;
   return f;
 }
