@@ -197,6 +197,21 @@ def test_mis_is_passed_to_the_scene_as_render_mis():
     assert e.value.field == "render.mis" and "power" in str(e.value)
 
 
+def test_light_selection_and_the_lobe_aware_techniques():
+    # light_selection is render.light_selection; ltc and sg-bvh render a glossy polygon scene and a many-light one,
+    # and each image's mean is the default technique's within a few standard errors (both unbiased).
+    stats = penumbra.render("many-spheres", spp=1, light_selection="sg-bvh", backend="cpu", **SMALL).stats
+    assert stats["light_selection"] == "sg-bvh"
+    for options in ({"strategy": "ltc", "mis": "power"}, {"light_selection": "sg-bvh"}):
+        a = penumbra.render("polygon-near", spp=64, backend="cpu", seed=1, **SMALL, **options)
+        b = penumbra.render("polygon-near", spp=64, backend="cpu", seed=2, **SMALL)
+        r = penumbra.compare(a, b)
+        assert abs(r["image_z"]) < 4, (options, r["summary"])
+    with pytest.raises(penumbra.SceneError) as e:
+        penumbra.render("cornell-sphere", spp=1, light_selection="nearest", backend="cpu", **SMALL)
+    assert e.value.field == "render.light_selection" and "sg-bvh" in str(e.value)
+
+
 def test_build_info():
     info = penumbra.build_info()
     assert isinstance(info["optix"], bool) and isinstance(info["gpu_available"], bool)
