@@ -34,6 +34,7 @@ struct RenderArgs {
   static constexpr long long kUnset = std::numeric_limits<long long>::min();
   long long spp = kUnset, width = kUnset, height = kUnset, rr_depth = kUnset;
   float exposure = 0.f;
+  std::string exr_compression = "zip";
   bool stats = false;
   bool denoise = false;  // also <name>_denoised.<ext>
   DenoiseArgs denoiser;
@@ -156,11 +157,13 @@ int run_render(const RenderArgs& a) {
   const RenderStats stats = backend->last_render_stats();
 
   // The image is written even when samples were dropped: a finished render is never thrown away.
+  ExrOptions exr;
+  exr.compression = a.exr_compression == "none" ? ExrCompression::None : ExrCompression::Zip;
   std::fprintf(stderr, "writing %s\n", out.c_str());
-  write_image(out, r.width, r.height, film.mean(), a.exposure);
+  write_image(out, r.width, r.height, film.mean(), a.exposure, exr);
   if (!a.variance.empty()) {
     std::fprintf(stderr, "writing %s\n", a.variance.c_str());
-    write_image(a.variance, r.width, r.height, film.variance_of_mean());
+    write_image(a.variance, r.width, r.height, film.variance_of_mean(), 0.f, exr);
   }
   if (a.denoise || a.aov) {
     const FrameSpec frame = frame_spec(scene);
@@ -174,14 +177,14 @@ int run_render(const RenderArgs& a) {
                    kGuideSamples, d.how.c_str(),
                    denoise.denoiser == DenoiserKind::Oidn ? (" (library from " + oidn_found + ")").c_str() : "",
                    d.denoise_ms, denoised.c_str());
-      write_image(denoised, r.width, r.height, d.rgb, a.exposure);
+      write_image(denoised, r.width, r.height, d.rgb, a.exposure, exr);
     } else {
       d.guides = backend->render_guides(frame, kGuideSamples);
     }
     if (a.aov) {
       std::fprintf(stderr, "writing %s and %s\n", albedo.c_str(), normal.c_str());
-      write_image(albedo, r.width, r.height, d.guides.albedo);
-      write_image(normal, r.width, r.height, d.guides.normal);
+      write_image(albedo, r.width, r.height, d.guides.albedo, 0.f, exr);
+      write_image(normal, r.width, r.height, d.guides.normal, 0.f, exr);
     }
   }
   const double seconds = bar.elapsed();  // rendering and writing
@@ -229,6 +232,10 @@ Command add_render_command(CLI::App& app) {
       ->check(CLI::Range(-64.f, 64.f));
   sub->add_option("--variance", a->variance, "Also write the per-pixel variance of the mean (EXR)")
       ->check(image_path_check());
+  sub->add_option("--exr-compression", a->exr_compression,
+                  "EXR files: zip (lossless, its blocks compressed on every core) or none (larger, written fastest)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"zip", "none"}));
   sub->add_flag("--stats", a->stats, "Print scene and timing statistics");
   sub->add_flag("--denoise", a->denoise,
                 "Also write <output>_denoised.<ext>: denoised with albedo and normal guides (--denoiser: Intel Open "

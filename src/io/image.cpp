@@ -63,11 +63,11 @@ std::vector<uint8_t> png_of(const std::string& path, int width, int height, cons
 }  // namespace
 
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb,
-                 float exposure_stops) {
+                 float exposure_stops, const ExrOptions& exr) {
   const std::string ext = extension(path);
   if (rgb.size() != size_t(width) * height * 3) throw std::logic_error("write_image: buffer size mismatch");
   if (ext == "exr") {
-    const std::vector<uint8_t> bytes = encode_exr(width, height, rgb);
+    const std::vector<uint8_t> bytes = encode_exr(width, height, rgb, exr);
     write_file_atomic(path, bytes.data(), bytes.size());
   } else if (ext == "png") {
     const std::vector<uint8_t> bytes = png_of(path, width, height, rgb, exposure_stops);

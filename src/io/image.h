@@ -1,11 +1,13 @@
 // Image files. The format follows the file extension:
-//   .exr  linear RGB, float32 (tinyexr)
+//   .exr  linear RGB, float32 (io/exr_write.h: ZIP-compressed on every core, or uncompressed)
 //   .png  sRGB 8-bit, after exposure (x 2^stops) and clamping (stb_image_write)
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "io/exr_write.h"
 
 namespace pn {
 
@@ -14,7 +16,7 @@ namespace pn {
 // std::runtime_error with one line naming the path on failure or on an unknown
 // extension.
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb,
-                 float exposure_stops = 0.f);
+                 float exposure_stops = 0.f, const ExrOptions& exr = {});
 
 // A PNG of 8-bit pixels (channels 1..4, rows top first); `path` names it in errors.
 std::vector<uint8_t> encode_png(const std::string& path, int width, int height, int channels, const uint8_t* pixels);

@@ -55,6 +55,7 @@ expect_usage(--restir-source "render.restir.source" ${R} --restir-source restir)
 expect_usage(--restir-biased "excludes --restir-pairwise" ${R} --restir-biased --restir-pairwise)
 expect_usage(--output "unknown image format '.bmp'" ${PENUMBRA} render cornell-sphere -o ${WORK}/x.bmp)
 expect_usage(--variance "unknown image format '.tif'" ${R} --variance ${WORK}/v.tif)
+expect_usage(--exr-compression "piz" ${R} --exr-compression piz)
 expect_usage(--threads "" ${R} --threads -1)
 # The other commands' names and combinations.
 expect_usage(--strategies "unknown strategy 'nope'" ${PENUMBRA} bench --strategies area,nope)

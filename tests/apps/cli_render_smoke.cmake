@@ -38,6 +38,15 @@ foreach(f dumped.png a.exr a_var.exr)
   endif()
 endforeach()
 run(${PENUMBRA} compare ${WORK}/a.exr ${WORK}/a_var.exr ${WORK}/a.exr ${WORK}/a_var.exr)
+# --exr-compression none: the same image (the same seed, compare's means equal), in a larger file.
+run(${PENUMBRA} render cornell-sphere --backend cpu --width 32 --height 18 --spp 4 --strategy area
+    --set light.radius=0.1 -o ${WORK}/raw.exr --variance ${WORK}/raw_var.exr --exr-compression none)
+run(${PENUMBRA} compare ${WORK}/a.exr ${WORK}/a_var.exr ${WORK}/raw.exr ${WORK}/raw_var.exr)
+file(SIZE ${WORK}/a.exr zip_size)
+file(SIZE ${WORK}/raw.exr raw_size)
+if(NOT raw_size GREATER zip_size OR raw_size LESS 6912)  # 32 x 18 x 3 floats
+  message(FATAL_ERROR "--exr-compression none wrote ${raw_size} bytes, zip ${zip_size}")
+endif()
 # The denoiser's guides on any backend: <output>_albedo.exr and <output>_normal.exr beside the image.
 file(REMOVE ${WORK}/g.png ${WORK}/g_albedo.exr ${WORK}/g_normal.exr)
 run(${PENUMBRA} render cornell-sphere --backend cpu --width 16 --height 12 --spp 1 --aov -o ${WORK}/g.png)
