@@ -234,37 +234,41 @@ struct LightBvhPick {
   float pmf = 0.f;  // 0: nothing (no node has importance at p)
 };
 
-// What a traversal weighs nodes by: the bound (bvh) or, with lobes, the SG estimate (sg-bvh).
+// What a traversal weighs nodes by: the bound (bvh) or, with lobes, the SG estimate (sg-bvh). The traversals are
+// templates on which (kSg): bvh's code is the bound's alone, as before sg-bvh existed.
 struct LightBvhQuery {
   Vec3 p, n;
-  bool sg = false;
-  SgLobes lobes;
+  SgLobes lobes;  // kSg only
 };
-PN_FN LightBvhQuery light_bvh_query(const LightSampleContext& ctx, bool sg) {
+template <bool kSg>
+PN_FN LightBvhQuery light_bvh_query(const LightSampleContext& ctx) {
   LightBvhQuery q;
   q.p = ctx.p;
   q.n = ctx.n;
-  q.sg = sg;
-  if (sg) q.lobes = make_sg_lobes(ctx);
+  if constexpr (kSg) q.lobes = make_sg_lobes(ctx);
   return q;
 }
+template <bool kSg>
 PN_FN float light_bvh_node_importance(const LightBvhNode& b, const LightBvhQuery& q) {
-  return q.sg ? light_bvh_importance_sg(b, q.p, q.lobes) : light_bvh_importance(b, q.p, q.n);
+  if constexpr (kSg) return light_bvh_importance_sg(b, q.p, q.lobes);
+  return light_bvh_importance(b, q.p, q.n);
 }
 
 // The probability of the first of two sibling nodes, from their importance; -1
 // when neither has any (traversal stops there).
+template <bool kSg>
 PN_FN float light_bvh_first_probability(const LightBvhNode& c0, const LightBvhNode& c1, const LightBvhQuery& q) {
-  const float i0 = light_bvh_node_importance(c0, q);
-  const float i1 = light_bvh_node_importance(c1, q);
+  const float i0 = light_bvh_node_importance<kSg>(c0, q);
+  const float i1 = light_bvh_node_importance<kSg>(c1, q);
   if (!(i0 > 0.f || i1 > 0.f)) return -1.f;
   return i0 / (i0 + i1);
 }
 
 // The same at interior node `node`.
+template <bool kSg>
 PN_FN float light_bvh_first_child_probability(const LightBvhView& v, uint32_t node, const LightBvhQuery& q) {
-  return light_bvh_first_probability(load_light_bvh_node(v.nodes, node + 1),
-                                     load_light_bvh_node(v.nodes, load_light_bvh_node(v.nodes, node).index), q);
+  return light_bvh_first_probability<kSg>(load_light_bvh_node(v.nodes, node + 1),
+                                          load_light_bvh_node(v.nodes, load_light_bvh_node(v.nodes, node).index), q);
 }
 
 // Whether a tree whose root is a leaf (one light) has importance at ctx: no parent checked it.
@@ -274,16 +278,17 @@ PN_FN bool light_bvh_root_leaf_visible(const LightBvhView& v, const LightBvhQuer
 
 // One light, by one traversal with the uniform u. Each level reads the two
 // children (the node itself was read as a child of its parent).
-// sg: weigh nodes by the BSDF's lobes at ctx (sg-bvh).
-PN_FN LightBvhPick light_bvh_select(const LightBvhView& v, const LightSampleContext& ctx, float u, bool sg = false) {
+// kSg: weigh nodes by the BSDF's lobes at ctx (sg-bvh).
+template <bool kSg = false>
+PN_FN LightBvhPick light_bvh_select(const LightBvhView& v, const LightSampleContext& ctx, float u) {
   LightBvhPick pick;
   if (!v.nodes) return pick;
-  const LightBvhQuery q = light_bvh_query(ctx, sg);
+  const LightBvhQuery q = light_bvh_query<kSg>(ctx);
   uint32_t node = 0, index = load_light_bvh_node(v.nodes, 0).index;
   float pmf = 1.f;
   while (!(index & kLightBvhLeaf)) {
     const LightBvhNode c0 = load_light_bvh_node(v.nodes, node + 1), c1 = load_light_bvh_node(v.nodes, index);
-    const float p0 = light_bvh_first_probability(c0, c1, q);
+    const float p0 = light_bvh_first_probability<kSg>(c0, c1, q);
     if (p0 < 0.f) return pick;
     if (u < p0) {
       u = pn_min(u / p0, kOneMinusEpsilon);
@@ -305,16 +310,17 @@ PN_FN LightBvhPick light_bvh_select(const LightBvhView& v, const LightSampleCont
 
 // The probability that light_bvh_select() picks `light` at ctx: the same
 // ratios, in the same floating-point operations, along the light's trail.
-PN_FN float light_bvh_pmf(const LightBvhView& v, const LightSampleContext& ctx, uint32_t light, bool sg = false) {
+template <bool kSg = false>
+PN_FN float light_bvh_pmf(const LightBvhView& v, const LightSampleContext& ctx, uint32_t light) {
   if (!v.nodes) return 0.f;
-  const LightBvhQuery q = light_bvh_query(ctx, sg);
+  const LightBvhQuery q = light_bvh_query<kSg>(ctx);
   uint64_t trail = v.trails[light];
   if (trail == 0) return 0.f;
   uint32_t node = 0, index = load_light_bvh_node(v.nodes, 0).index;
   float pmf = 1.f;
   for (; trail > 1u; trail >>= 1) {
     const LightBvhNode c0 = load_light_bvh_node(v.nodes, node + 1), c1 = load_light_bvh_node(v.nodes, index);
-    const float p0 = light_bvh_first_probability(c0, c1, q);
+    const float p0 = light_bvh_first_probability<kSg>(c0, c1, q);
     if (p0 < 0.f) return 0.f;
     if (trail & 1u) {
       pmf *= 1.f - p0;

@@ -128,8 +128,9 @@ PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightS
           s.pmf = p_inf;
           return s;
         }
-        const LightBvhPick pick = light_bvh_select(v.bvh, ctx, pn_min((u - p_inf) / (1.f - p_inf), kOneMinusEpsilon),
-                                                   method == LightSelection::SgBvh);
+        const float ub = pn_min((u - p_inf) / (1.f - p_inf), kOneMinusEpsilon);
+        const LightBvhPick pick = method == LightSelection::SgBvh ? light_bvh_select<true>(v.bvh, ctx, ub)
+                                                                  : light_bvh_select<false>(v.bvh, ctx, ub);
         s.index = pick.light;
         s.pmf = pick.pmf * (1.f - p_inf);
         return s;
@@ -162,7 +163,9 @@ PN_FN float selection_pmf(const LightSelectionView& v, uint32_t n, LightSelectio
       if (v.bvh.nodes || v.infinite_light >= 0) {
         const float p_inf = v.infinite_light >= 0 ? v.infinite_probability : 0.f;
         if (int32_t(i) == v.infinite_light) return p_inf;
-        return light_bvh_pmf(v.bvh, ctx, i, method == LightSelection::SgBvh) * (1.f - p_inf);
+        const float pmf =
+            method == LightSelection::SgBvh ? light_bvh_pmf<true>(v.bvh, ctx, i) : light_bvh_pmf<false>(v.bvh, ctx, i);
+        return pmf * (1.f - p_inf);
       }
       [[fallthrough]];
     case LightSelection::Power:

@@ -76,16 +76,31 @@ LightSampleContext random_context(Rng& r, float extent = 7.f, bool lobes = false
 
 // Every leaf's probability by walking the whole tree: the product of the
 // child probabilities along each path, independent of any u.
+template <bool kSg>
 void exhaustive(const LightBvhView& v, uint32_t node, float pmf, const LightBvhQuery& q, std::vector<double>* out) {
   if (v.nodes[node].index & kLightBvhLeaf) {
     if (node == 0 && !light_bvh_root_leaf_visible(v, q)) return;
     (*out)[v.nodes[node].index & ~kLightBvhLeaf] += pmf;
     return;
   }
-  const float p0 = light_bvh_first_child_probability(v, node, q);
+  const float p0 = light_bvh_first_child_probability<kSg>(v, node, q);
   if (p0 < 0.f) return;
-  exhaustive(v, node + 1, pmf * p0, q, out);
-  exhaustive(v, v.nodes[node].index, pmf * (1.f - p0), q, out);
+  exhaustive<kSg>(v, node + 1, pmf * p0, q, out);
+  exhaustive<kSg>(v, v.nodes[node].index, pmf * (1.f - p0), q, out);
+}
+
+// The traversal's functions with the method chosen at run time (the tests loop over both).
+LightBvhPick bvh_select(const LightBvhView& v, const LightSampleContext& ctx, float u, bool sg) {
+  return sg ? light_bvh_select<true>(v, ctx, u) : light_bvh_select<false>(v, ctx, u);
+}
+float bvh_pmf(const LightBvhView& v, const LightSampleContext& ctx, uint32_t light, bool sg) {
+  return sg ? light_bvh_pmf<true>(v, ctx, light) : light_bvh_pmf<false>(v, ctx, light);
+}
+void bvh_exhaustive(const LightBvhView& v, const LightSampleContext& ctx, bool sg, std::vector<double>* out) {
+  if (sg)
+    exhaustive<true>(v, 0, 1.f, light_bvh_query<true>(ctx), out);
+  else
+    exhaustive<false>(v, 0, 1.f, light_bvh_query<false>(ctx), out);
 }
 
 LightBvhView view_of(const LightBvh& t) { return LightBvhView{t.nodes.data(), t.trails.data()}; }
@@ -166,10 +181,10 @@ TEST(LightBvh, PmfEqualsTheTraversalsProbabilityExhaustively) {
     for (int k = 0; k < 30; ++k) {
       const LightSampleContext ctx = random_context(r, 7.f, sg);
       std::vector<double> walk(size_t(n), 0.0), counts(size_t(n), 0.0);
-      exhaustive(v, 0, 1.f, light_bvh_query(ctx, sg), &walk);
+      bvh_exhaustive(v, ctx, sg, &walk);
       double sum = 0;
       for (int i = 0; i < n; ++i) {
-        const float pmf = light_bvh_pmf(v, ctx, uint32_t(i), sg);
+        const float pmf = bvh_pmf(v, ctx, uint32_t(i), sg);
         EXPECT_NEAR(pmf, walk[size_t(i)], 1e-6 * std::max(1.0, walk[size_t(i)])) << "n " << n << " light " << i;
         sum += pmf;
       }
@@ -178,13 +193,13 @@ TEST(LightBvh, PmfEqualsTheTraversalsProbabilityExhaustively) {
       ++contexts_with_light;
       double none = 0;
       for (int g = 0; g < G; ++g) {
-        const LightBvhPick pick = light_bvh_select(v, ctx, (float(g) + 0.5f) / float(G), sg);
+        const LightBvhPick pick = bvh_select(v, ctx, (float(g) + 0.5f) / float(G), sg);
         if (!(pick.pmf > 0.f)) {
           none += 1;
           continue;
         }
         ASSERT_LT(pick.light, uint32_t(n));
-        ASSERT_EQ(pick.pmf, light_bvh_pmf(v, ctx, pick.light, sg)) << "the pick's pmf is not pmf()'s";
+        ASSERT_EQ(pick.pmf, bvh_pmf(v, ctx, pick.light, sg)) << "the pick's pmf is not pmf()'s";
         counts[pick.light] += 1;
       }
       // Each light's u form one interval of length pmf: at most one grid point
@@ -211,14 +226,14 @@ TEST(LightBvh, SelectionFrequenciesMatchPmfOnAThousandLights) {
     // One bin per light and one for "no light".
     std::vector<double> observed(lights.size() + 1, 0.0), expected(lights.size() + 1, 0.0);
     double sum = 0;
-    for (size_t i = 0; i < lights.size(); ++i) sum += expected[i] = light_bvh_pmf(v, ctx, uint32_t(i), sg);
+    for (size_t i = 0; i < lights.size(); ++i) sum += expected[i] = bvh_pmf(v, ctx, uint32_t(i), sg);
     ASSERT_LE(sum, 1.0 + 1e-4);
     if (sum == 0) continue;  // every light behind the surface: nothing to choose
     ++tested;
     expected.back() = std::max(0.0, 1.0 - sum);
     for (double& e : expected) e *= N;
     for (int s = 0; s < N; ++s) {
-      const LightBvhPick pick = light_bvh_select(v, ctx, r.uniform(), sg);
+      const LightBvhPick pick = bvh_select(v, ctx, r.uniform(), sg);
       observed[pick.pmf > 0.f ? pick.light : lights.size()] += 1;
     }
     const test::Chi2Result c = test::chi2_test(observed, expected);
@@ -257,7 +272,7 @@ TEST(LightBvh, ImportanceIsConservative) {
         }
         if (!contributes) continue;
         ++contributing;
-        EXPECT_GT(light_bvh_pmf(v, ctx, uint32_t(i), sg), 0.f) << "type " << type << ", light " << i << ", sg " << sg;
+        EXPECT_GT(bvh_pmf(v, ctx, uint32_t(i), sg), 0.f) << "type " << type << ", light " << i << ", sg " << sg;
       }
     }
     EXPECT_GT(contributing, 1000);
