@@ -111,8 +111,8 @@ PN_FN float polygon_form_factor(const Vec3* v, int n) {
   return std::fabs(sum) * kInvTwoPi;
 }
 
-// A quad's or triangle's corners relative to the shading point, in `frame` and through Minv; returns the count.
-PN_FN int light_polygon(const Light& l, Vec3 x, const Frame& frame, const Ltc* ltc, Vec3 v[4]) {
+// A quad's or triangle's corners relative to the shading point, in `frame`; returns the count.
+PN_FN int light_polygon(const Light& l, Vec3 x, const Frame& frame, Vec3 v[4]) {
   const int n = l.type == LightType::Triangle ? 3 : 4;
   const Vec3 p = l.p - x;
   v[0] = p;
@@ -123,10 +123,7 @@ PN_FN int light_polygon(const Light& l, Vec3 x, const Frame& frame, const Ltc* l
     v[2] = p + l.e1 + l.e2;
     v[3] = p + l.e2;
   }
-  for (int i = 0; i < n; ++i) {
-    v[i] = frame.to_local(v[i]);
-    if (ltc) v[i] = ltc->inverse(v[i]);
-  }
+  for (int i = 0; i < n; ++i) v[i] = frame.to_local(v[i]);
   return n;
 }
 
@@ -137,6 +134,14 @@ struct LtcLobe {
   Frame frame;  // z: the shading normal; x: towards wo
   Ltc ltc;
   bool specular = false;
+  // A world vector in cosine space: into the lobe's frame, then through Minv.
+  PN_FN Vec3 to_cosine(Vec3 w) const { return ltc.inverse(frame.to_local(w)); }
+  // A cosine-space density as a solid-angle density at the unit world direction whose cosine-space vector is
+  // v = to_cosine(w): times the Jacobian d w_o / d w = det(Minv) / |v|^3.
+  PN_FN float solid_angle_pdf(float cosine_pdf, Vec3 v) const {
+    const float len2 = dot(v, v);
+    return cosine_pdf * ltc.det_inverse() / (len2 * std::sqrt(len2));
+  }
 };
 
 PN_FN LtcLobe make_ltc_lobe(const LightSampleContext& ctx) {
@@ -161,9 +166,9 @@ PN_FN LtcLobe make_ltc_lobe(const LightSampleContext& ctx) {
 PN_FN float ltc_probability(const Light& l, const LightSampleContext& ctx, const LtcLobe& lobe) {
   if (!lobe.specular) return 0.f;
   Vec3 v[4];
-  const int n = light_polygon(l, ctx.p, lobe.frame, nullptr, v);
+  const int n = light_polygon(l, ctx.p, lobe.frame, v);
   const float diffuse = ctx.diffuse * polygon_form_factor(v, n);
-  light_polygon(l, ctx.p, lobe.frame, &lobe.ltc, v);
+  for (int i = 0; i < n; ++i) v[i] = lobe.ltc.inverse(v[i]);
   const float specular = ctx.specular * lobe.ltc.rho * polygon_form_factor(v, n);
   const float total = diffuse + specular;
   return clamp(total > 0.f ? specular / total : 0.5f, 0.05f, 0.95f);
@@ -173,9 +178,9 @@ PN_FN float ltc_probability(const Light& l, const LightSampleContext& ctx, const
 // its emitting side kept on the same side (det(Minv) > 0 keeps the orientation of e1 x e2).
 PN_FN Light ltc_space_light(const Light& l, Vec3 x, const LtcLobe& lobe) {
   Light c = l;
-  c.p = lobe.ltc.inverse(lobe.frame.to_local(l.p - x));
-  c.e1 = lobe.ltc.inverse(lobe.frame.to_local(l.e1));
-  c.e2 = lobe.ltc.inverse(lobe.frame.to_local(l.e2));
+  c.p = lobe.to_cosine(l.p - x);
+  c.e1 = lobe.to_cosine(l.e1);
+  c.e2 = lobe.to_cosine(l.e2);
   const Vec3 n = cross(c.e1, c.e2);
   const float len = length(n);
   const float side = dot(cross(l.e1, l.e2), l.n) >= 0.f ? 1.f : -1.f;
@@ -188,11 +193,9 @@ PN_FN Light ltc_space_light(const Light& l, Vec3 x, const LtcLobe& lobe) {
 PN_FN float ltc_technique_pdf(const Light& l, const LightSampleContext& ctx, const LtcLobe& lobe, Vec3 wi) {
   const Light c = ltc_space_light(l, ctx.p, lobe);
   if (!(c.area > 0.f)) return 0.f;
-  const Vec3 v = lobe.ltc.inverse(lobe.frame.to_local(wi));
-  const float len2 = dot(v, v);
-  const float len = std::sqrt(len2);
   const LightSampleContext cosine_ctx{Vec3(0.f), Vec3(0.f, 0.f, 1.f)};
-  return pdf_spherical_polygon<true>(c, cosine_ctx, v / len) * lobe.ltc.det_inverse() / (len2 * len);
+  const Vec3 v = lobe.to_cosine(wi);
+  return lobe.solid_angle_pdf(pdf_spherical_polygon<true>(c, cosine_ctx, v / length(v)), v);
 }
 
 // A sample of the LTC technique: a cosine-space sample of the transformed light, mapped back by its affine
@@ -208,9 +211,7 @@ PN_FN LightSample ltc_technique_sample(const Light& l, const LightSampleContext&
   const float dist = length(d);
   if (!(dist > 0.f)) return LightSample();
   const Vec3 wi = d / dist;
-  const Vec3 v = lobe.ltc.inverse(lobe.frame.to_local(wi));
-  const float len2 = dot(v, v);
-  return planar_sample_from_direction(l, ctx.p, wi, cs.pdf * lobe.ltc.det_inverse() / (len2 * std::sqrt(len2)));
+  return planar_sample_from_direction(l, ctx.p, wi, lobe.solid_angle_pdf(cs.pdf, lobe.to_cosine(wi)));
 }
 
 struct LtcSampling {

@@ -266,7 +266,7 @@ TEST_P(PolygonIrradiance, EveryStrategyAndMisModeMatchesLambertsFormula) {
   // ltc's mixture weighs its lobes by the same form factor in float (core/ltc.h): E = pi L F (within 1e-3: the edge
   // terms of a polygon far away nearly cancel, 3e-4 of tiny_far_triangle's is rounding).
   Vec3 corners[4];
-  const int count = light_polygon(l, c.x, Frame::from_z(n), nullptr, corners);
+  const int count = light_polygon(l, c.x, Frame::from_z(n), corners);
   EXPECT_NEAR(kPi * L * polygon_form_factor(corners, count), expected, 1e-3 * expected) << c.name;
   const float sl_area = planar_light_solid_angle(l, c.x);
   for (Strategy st : kLightStrategies)
