@@ -106,15 +106,19 @@ for task in ("bench", "probe"):
         for k, run in enumerate(runs):
             for res in run.get("results", []):
                 if task == "bench":
-                    key = (res["scene"], res["strategy"])
-                    val = "%.3f" % res["ms_per_launch"]["median"]
+                    what = res["strategy"] + ("" if res.get("mis", "none") == "none" else "+" + res["mis"])
+                    if res.get("light_selection") not in (None, "power"):
+                        what += ", " + res["light_selection"]
+                    key = (res["scene"], what)
+                    wall = res.get("wall_ms_per_launch")
+                    val = "%.3f" % res["ms_per_launch"]["median"] + ("" if wall is None else " (%.3f)" % wall)
                 else:
                     key = (res["scene"], "Grays/s closest / shadow: cuda (optix)")
                     c, o = res["cuda"], res["optix"]
                     val = "%.2f / %.2f (%.2f / %.2f)" % (c["closest_grays"], c["shadow_grays"], o["closest_grays"],
                                                          o["shadow_grays"])
                 rows.setdefault(key, {}).setdefault(t, []).append(val)
-    print(f"\n{task}: " + ("median ms a sample" if task == "bench" else "the trace stage on random rays") +
+    print(f"\n{task}: " + ("median ms a sample, GPU (wall)" if task == "bench" else "the trace stage on random rays") +
           ", each variant's rounds in order")
     print("| scene | what | " + " | ".join(tags) + " |")
     print("| --- | --- | " + " | ".join("---:" for _ in tags) + " |")
