@@ -106,7 +106,7 @@ for task in ("bench", "probe"):
         for k, run in enumerate(runs):
             for res in run.get("results", []):
                 if task == "bench":
-                    what = res["strategy"] + ("" if res.get("mis", "none") == "none" else "+" + res["mis"])
+                    what = res["strategy"]  # with its MIS mode: "solid-angle+power"
                     if res.get("light_selection") not in (None, "power"):
                         what += ", " + res["light_selection"]
                     key = (res["scene"], what)

@@ -90,11 +90,12 @@ def _override_list(overrides: Optional[Mapping[str, Any]]) -> List[str]:
 
 def _frame_overrides(strategy: Optional[str] = None, spp: Optional[int] = None, width: Optional[int] = None,
                      height: Optional[int] = None, seed: Optional[int] = None, max_depth: Optional[int] = None,
-                     mis: Optional[str] = None, light_selection: Optional[str] = None) -> Dict[str, Any]:
+                     mis: Optional[str] = None, light_selection: Optional[str] = None,
+                     slc_cut: Optional[int] = None) -> Dict[str, Any]:
     """The keyword arguments of render() as scene overrides (validated by the scene parser)."""
     named = {"render.strategy": strategy, "render.spp": spp, "render.width": width, "render.height": height,
              "render.seed": seed, "render.max_depth": max_depth, "render.mis": mis,
-             "render.light_selection": light_selection}
+             "render.light_selection": light_selection, "render.slc_cut": slc_cut}
     return {k: v for k, v in named.items() if v is not None}
 
 
@@ -237,7 +238,7 @@ def load_scene(scene: SceneLike, overrides: Optional[Mapping[str, Any]] = None) 
 def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[int] = None,
            width: Optional[int] = None, height: Optional[int] = None, seed: Optional[int] = 0,
            max_depth: Optional[int] = None, backend: str = "auto", mis: Optional[str] = None,
-           light_selection: Optional[str] = None,
+           light_selection: Optional[str] = None, slc_cut: Optional[int] = None,
            denoise: bool = False, denoiser: str = "oidn", denoise_quality: str = "high",
            overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
            gpus: GpusLike = "all", gpu_tuning: GpuTuningLike = None,
@@ -260,8 +261,9 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
             ``image.stats["note"]`` says which and why).
         mis: multiple importance sampling ("none", "balance" or "power"), passed as the
             scene value render.mis where this penumbra's scenes have it.
-        light_selection: which light a sample goes to: "uniform", "power", "bvh", "sg-bvh" or
-            "restir" (render.light_selection; restir's own settings through overrides).
+        light_selection: which light a sample goes to: "uniform", "power", "bvh", "sg-bvh", "slc"
+            or "restir" (render.light_selection; restir's own settings through overrides).
+        slc_cut: light_selection "slc": the most nodes of a cut, a light sample each (render.slc_cut).
         denoise: also denoise the image: ``image.denoised`` is the denoised mean and
             ``image.albedo``, ``image.normal`` the denoiser's guides, float32 (H, W, 3) numpy
             arrays (None without denoise); ``image.stats["denoiser"]`` says which ran.
@@ -289,7 +291,8 @@ def render(scene: SceneLike, *, strategy: Optional[str] = None, spp: Optional[in
                            "CPU (denoiser='oidn' denoises on any backend)")
     s = load_scene(scene, overrides)
     r = Renderer(s, backend=backend, strategy=strategy, spp=spp, width=width, height=height, seed=seed,
-                 max_depth=max_depth, mis=mis, light_selection=light_selection, threads=threads, gpus=gpus,
+                 max_depth=max_depth, mis=mis, light_selection=light_selection, slc_cut=slc_cut, threads=threads,
+                 gpus=gpus,
                  gpu_tuning=gpu_tuning)
     if denoise:  # the denoiser's checks (its library, its backend) before rendering
         r._check_denoise(denoiser, denoise_quality)
@@ -317,11 +320,12 @@ class Renderer:
     def __init__(self, scene: SceneLike, *, backend: str = "auto", strategy: Optional[str] = None,
                  spp: Optional[int] = None, width: Optional[int] = None, height: Optional[int] = None,
                  seed: Optional[int] = 0, max_depth: Optional[int] = None, mis: Optional[str] = None,
-                 light_selection: Optional[str] = None, overrides: Optional[Mapping[str, Any]] = None,
-                 threads: Optional[int] = None, gpus: GpusLike = "all", gpu_tuning: GpuTuningLike = None):
+                 light_selection: Optional[str] = None, slc_cut: Optional[int] = None,
+                 overrides: Optional[Mapping[str, Any]] = None, threads: Optional[int] = None,
+                 gpus: GpusLike = "all", gpu_tuning: GpuTuningLike = None):
         tuning = _gpu_tuning(gpu_tuning)
         s = scene if isinstance(scene, Scene) else load_scene(scene)
-        frame = _frame_overrides(strategy, spp, width, height, seed, max_depth, mis, light_selection)
+        frame = _frame_overrides(strategy, spp, width, height, seed, max_depth, mis, light_selection, slc_cut)
         frame.update(overrides or {})
         self._r = _penumbra.Renderer(s._state, _check_backend(backend), _threads(threads), _gpus(gpus),
                                      _override_list(frame), tuning)
@@ -359,11 +363,12 @@ class Renderer:
 
     def set(self, *, strategy: Optional[str] = None, width: Optional[int] = None, height: Optional[int] = None,
             seed: Optional[int] = None, max_depth: Optional[int] = None, mis: Optional[str] = None,
-            light_selection: Optional[str] = None, overrides: Optional[Mapping[str, Any]] = None) -> None:
+            light_selection: Optional[str] = None, slc_cut: Optional[int] = None,
+            overrides: Optional[Mapping[str, Any]] = None) -> None:
         """Changes settings or scene values (see the class) and starts the image over.
 
         Raises SceneError, leaving everything as it was, if a value is invalid."""
-        frame = _frame_overrides(strategy, None, width, height, seed, max_depth, mis, light_selection)
+        frame = _frame_overrides(strategy, None, width, height, seed, max_depth, mis, light_selection, slc_cut)
         frame.update(overrides or {})
         self._r.update(_override_list(frame))
 

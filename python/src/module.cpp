@@ -434,6 +434,7 @@ them without a copy to the host.)")
                   {"mis", mis_name(i.mis)},
                   {"mis_compensation", i.mis_compensation},
                   {"light_selection", light_selection_name(i.light_selection)},
+                  {"slc_cut", i.slc_cut},
                   {"seed", s.seed}};
         return to_py(j);
       });

@@ -231,6 +231,7 @@ json Renderer::stats() const {
   s["mis"] = mis_name(settings_.integrator.mis);
   s["mis_compensation"] = settings_.integrator.mis_compensation;
   s["light_selection"] = light_selection_name(settings_.integrator.light_selection);
+  s["slc_cut"] = settings_.integrator.slc_cut;
   s["max_depth"] = settings_.integrator.max_depth;
   s["rr_depth"] = settings_.integrator.rr_depth;
   s["seed"] = settings_.seed;

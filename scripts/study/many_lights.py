@@ -18,7 +18,8 @@ from .report import fmt, generated_by, matplotlib, plt
 
 MANY_COLORS = {"uniform": "#7f7f7f", "power": "#d62728", "bvh": "#1f77b4", "restir": "#2ca02c", "restir-bvh": "#17becf",
                "restir-temporal": "#bcbd22", "restir-biased": "#9467bd", "ris-bvh": "#ff7f0e",
-               "restir-unshadowed": "#98df8a", "restir-bvh-unshadowed": "#9edae5", "sg-bvh": "#8c564b"}
+               "restir-unshadowed": "#98df8a", "restir-bvh-unshadowed": "#9edae5", "sg-bvh": "#8c564b",
+               "slc-1": "#c5b0d5", "slc-8": "#e377c2", "slc-32": "#f7b6d2"}
 
 
 def many_group(plan_, head):
@@ -48,7 +49,7 @@ def many_bench(args, cfg, out_dir):
         os.makedirs(os.path.dirname(path), exist_ok=True)
         cmd = [args.penumbra, "bench", "--backend", args.backend, "--scenes", "many-spheres", "--set",
                f"defaults.lights={n}", "--set", "render.restir.pairwise=true",  # restir as MANY_SELECTIONS runs it
-               "--selections", ",".join(["uniform", "power", "bvh", "restir"]),
+               "--selections", ",".join(["uniform", "power", "bvh", "sg-bvh", "slc", "restir"]),
                "--strategies", "solid-angle", "--mis", "power", "--width", str(cfg["sweep"]["width"]), "--height",
                str(cfg["sweep"]["height"]), "--launches", "5" if args.preset == "smoke" else "20", "--json", path]
         if not args.report_only:
@@ -192,15 +193,16 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         w("")
     if bench:
         w("## Cost and memory per method (`penumbra bench`, many-spheres)\n")
-        w("ms per launch of 1 spp (solid-angle + power; restir with pairwise MIS, as above); memory: the power CDF (4 bytes a light), the light BVH "
+        w("ms per launch of 1 spp (solid-angle + power; restir with pairwise MIS, as above; slc with a cut of 8); memory: the power CDF (4 bytes a light), the light BVH "
           "(nodes and trails, also uploaded to the GPU), restir's per-pixel buffers at this resolution.\n")
-        w("| lights | uniform | power | bvh | restir | BVH build ms | BVH MiB | power CDF MiB | restir MiB |")
-        w("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        benched = ["uniform", "power", "bvh", "sg-bvh", "slc", "restir"]
+        w("| lights | " + " | ".join(benched) + " | BVH build ms | BVH MiB | power CDF MiB | restir MiB |")
+        w("| ---: | " + " | ".join("---:" for _ in benched) + " | ---: | ---: | ---: | ---: |")
         for b in bench:
             j = b["bench"]
             ms = {r["light_selection"].split(" ")[0]: r["ms_per_launch"]["median"] for r in j["results"]}
             sb = j["scene_builds"][0]
-            w(f"| {b['lights']} | " + " | ".join(f"{ms.get(s, float('nan')):.3f}" for s in ["uniform", "power", "bvh", "restir"]) +
+            w(f"| {b['lights']} | " + " | ".join(f"{ms.get(s, float('nan')):.3f}" for s in benched) +
               f" | {sb['light_bvh_build_ms']:.2f} | {sb['light_bvh_mib']:.3f} | {4 * (b['lights'] + 1) / 2**20:.3f} | "
               f"{sb.get('restir_frame_mib', float('nan')):.2f} |")
         w("")

@@ -138,11 +138,15 @@ MANY_SELECTIONS = {
                               "render.restir.visibility_reuse=false"],
     "restir-temporal": ["render.light_selection=restir", "render.restir.pairwise=true", "render.restir.temporal=true"],
     "restir-biased": ["render.light_selection=restir", "render.restir.unbiased=false"],
+    # stochastic lightcuts (core/light_bvh.h): a cut of at most N nodes of the light BVH, a light sample and shadow
+    # ray in each; slc-1 is the light BVH's one sample (the same image as bvh, through slc's code).
+    **{f"slc-{n}": ['render.light_selection="slc"', f"render.slc_cut={n}"] for n in (1, 8, 32)},
 }
 # Methods whose renders are not independent samples (the slope check leaves them out) or not unbiased.
 MANY_CORRELATED = {"restir-temporal"}
 MANY_STRATEGIES = ["area", "solid-angle", "projected-solid-angle"]
-MANY_SWEEP_SELECTIONS = ["power", "bvh", "sg-bvh", "ris-bvh", "restir", "restir-bvh-unshadowed"]
+MANY_SWEEP_SELECTIONS = ["power", "bvh", "sg-bvh", "slc-1", "slc-8", "slc-32", "ris-bvh", "restir",
+                         "restir-bvh-unshadowed"]
 # restir's parameters (--only params, on many-spheres with and without GI at the headline's size): M candidates
 # drawn by the light BVH, resampled without reuse (ris-bvh) and with unbiased pairwise reuse of unshadowed targets
 # (restir-bvh-unshadowed, the headline's most efficient restir) over p spatial passes of k neighbours. Which is

@@ -126,6 +126,10 @@ void add_integrator_options(CLI::App* sub, IntegratorOptions* o) {
   sub->add_option("--light-selection", o->light_selection,
                   "How the light of each light sample is chosen (default: the scene's, else power):" + selections)
       ->check(render_setting("light_selection", true));
+  sub->add_option("--slc-cut", o->slc_cut,
+                  "--light-selection slc: the most nodes of a cut, 1.." + std::to_string(kMaxLightCut) +
+                      ", a light sample and shadow ray each (default: the scene's render.slc_cut, else 8)")
+      ->check(render_setting("slc_cut"));
   sub->add_option("--max-depth", o->max_depth, "Maximum number of bounces (default: the scene's)")
       ->check(render_setting("max_depth"));
   sub->add_option("--seed", o->seed, "Random seed, 0..4294967295 (default: the scene's)")->check(render_setting("seed"));
@@ -269,6 +273,7 @@ void append_integrator_overrides(const IntegratorOptions& o, std::vector<std::st
   if (!o.mis.empty()) overrides->push_back("render.mis=\"" + o.mis + "\"");
   if (o.mis_compensation) overrides->push_back("render.mis_compensation=true");
   if (!o.light_selection.empty()) overrides->push_back("render.light_selection=\"" + o.light_selection + "\"");
+  if (o.slc_cut != IntegratorOptions::kUnset) overrides->push_back("render.slc_cut=" + std::to_string(o.slc_cut));
   if (o.max_depth != IntegratorOptions::kUnset) overrides->push_back("render.max_depth=" + std::to_string(o.max_depth));
   if (o.seed != IntegratorOptions::kUnset) overrides->push_back("render.seed=" + std::to_string(o.seed));
   // Validated with the scene (render.restir.*: one line naming the field).

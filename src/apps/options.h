@@ -20,6 +20,7 @@ struct IntegratorOptions {
   std::string strategy, mis, light_selection;  // empty: the scene's
   bool mis_compensation = false;               // --mis-compensation (render.mis_compensation=true)
   long long max_depth = kUnset, seed = kUnset;  // --max-depth, --seed (render.max_depth, render.seed)
+  long long slc_cut = kUnset;  // --slc-cut (render.slc_cut)
   // restir's settings (render.restir.*); kUnset / empty: the scene's.
   long long restir_candidates = kUnset, restir_spatial = kUnset, restir_neighbors = kUnset;
   double restir_radius = -std::numeric_limits<double>::infinity();

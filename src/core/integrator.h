@@ -62,11 +62,12 @@ struct IntegratorSettings {
   int rr_depth = 5;   // Russian roulette from this vertex on
   // MIS compensation of the environment (environment.h; Karlik et al. 2019): see environment_compensated.
   bool mis_compensation = false;
+  uint32_t slc_cut = 8;  // light_selection == Slc: the most nodes of a cut (1..kMaxLightCut), a shadow ray each
 };
 inline bool operator==(const IntegratorSettings& a, const IntegratorSettings& b) {
   return a.strategy == b.strategy && a.mis == b.mis && a.light_selection == b.light_selection &&
          a.restir == b.restir && a.max_depth == b.max_depth && a.rr_depth == b.rr_depth &&
-         a.mis_compensation == b.mis_compensation;
+         a.mis_compensation == b.mis_compensation && a.slc_cut == b.slc_cut;
 }
 
 // Whether light samples of the environment come from its MIS-compensated distribution: with mis_compensation,
@@ -85,17 +86,21 @@ PN_FN LightSelection candidate_selection(const IntegratorSettings& s) {
   return s.light_selection == LightSelection::Restir ? s.restir.source : s.light_selection;
 }
 
-// Whether light sampling weighs by the BSDF's lobes: the `ltc` strategy and `sg-bvh` selection.
+// Whether light sampling weighs by the BSDF's lobes: the `ltc` strategy and `sg-bvh` selection, in code compiled
+// with kFeatureExtraLightSampling (core/features.h).
+template <uint32_t kFeatures = kAllFeatures>
 PN_FN bool light_sampling_sees_lobes(const IntegratorSettings& s) {
-  return s.strategy == Strategy::Ltc || candidate_selection(s) == LightSelection::SgBvh;
+  return (kFeatures & kFeatureExtraLightSampling) &&
+         (s.strategy == Strategy::Ltc || candidate_selection(s) == LightSelection::SgBvh);
 }
 
 // What the light samplers see at a shading point: the point and its shading normal, and where they weigh by the
 // BSDF's lobes (light_sampling_sees_lobes), the lobes at wo (core/lights.h).
-template <bool kSpecular = true>
+template <uint32_t kFeatures = kAllFeatures>
 PN_FN LightSampleContext light_sample_context(const IntegratorSettings& s, Vec3 p, const Bsdf& bsdf, Vec3 wo) {
+  constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
   LightSampleContext c{p, bsdf.frame.n};
-  if (!light_sampling_sees_lobes(s)) return c;
+  if (!light_sampling_sees_lobes<kFeatures>(s)) return c;
   const float cos_o = dot(wo, bsdf.frame.n);
   c.wo = wo;
   c.alpha = bsdf.alpha;
@@ -104,9 +109,23 @@ PN_FN LightSampleContext light_sample_context(const IntegratorSettings& s, Vec3 
   return c;
 }
 
+// Whether a configuration runs light sampling that only code compiled with kFeatureExtraLightSampling holds
+// (core/features.h): ltc, sg-bvh and slc.
+PN_FN bool needs_extra_light_sampling(const IntegratorSettings& s) {
+  return light_sampling_sees_lobes(s) || s.light_selection == LightSelection::Slc;
+}
+
+// Light samples a vertex makes: one, or with slc one per node of its cut and one of the environment.
+PN_FN uint32_t light_samples_per_vertex(const IntegratorSettings& s) {
+  return s.light_selection == LightSelection::Slc ? pn_min(pn_max(s.slc_cut, 1u), kMaxLightCut) + 1u : 1u;
+}
+
 // Whether the previous vertex a step reads (path_reads_prev) must hold the BSDF's lobes too: for `ltc`'s pdf and
 // `sg-bvh`'s pmf.
-PN_FN bool path_reads_prev_lobes(const IntegratorSettings& s) { return light_sampling_sees_lobes(s); }
+template <uint32_t kFeatures = kAllFeatures>
+PN_FN bool path_reads_prev_lobes(const IntegratorSettings& s) {
+  return light_sampling_sees_lobes<kFeatures>(s);
+}
 
 // The light technique's density in MIS weights: P(light) p_light per sample,
 // times the number of candidates where restir resampled M of them (as if the
@@ -136,7 +155,7 @@ template <uint32_t kFeatures = kAllFeatures>
 PN_FN DirectSample choose_direct_sample(const SceneView& scene, const IntegratorSettings& s, const Bsdf& bsdf, Vec3 p,
                                         Vec3 wo, bool ris, float u_select, Vec2 u, Rng* rng) {
   constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
-  const LightSampleContext ctx = light_sample_context<kSpecular>(s, p, bsdf, wo);
+  const LightSampleContext ctx = light_sample_context<kFeatures>(s, p, bsdf, wo);
   const LightSelection method = candidate_selection(s);
   DirectSample d;
   d.ris = ris && rng;
@@ -146,7 +165,7 @@ PN_FN DirectSample choose_direct_sample(const SceneView& scene, const Integrator
       u_select = rng->uniform();
       u = rng->uniform2();
     }
-    const SelectedLight sel = select_light(scene.selection, scene.num_lights, method, ctx, u_select);
+    const SelectedLight sel = select_light<kFeatures>(scene.selection, scene.num_lights, method, ctx, u_select);
     if (!(sel.pmf > 0.f)) continue;
     const LightSample ls = sample_light<kFeatures>(scene, s.strategy, load_light(scene.lights, sel.index), ctx, u,
                                                    environment_compensated(s));
@@ -217,6 +236,44 @@ PN_FN ShadowQuery direct_shadow_query(const IntegratorSettings& s, const Bsdf& b
   const float ris = d.ris ? d.w_sum * p_light / (float(d.M) * d.p_hat) : 1.f;  // p W
   q.contribution = d.f * ls.L * (dot(bsdf.frame.n, ls.wi) * w / p_light * ris);
   return q;
+}
+
+// slc's light samples at a vertex (stochastic lightcuts, core/light_bvh.h): one in each node of the cut at p, then
+// one of the environment, each a shadow query with the path's throughput beta passed to emit(query). Their sum
+// estimates the direct light: a light's probability is its node's sample's (selection_pmf), and the MIS weight of
+// each is the one-sample weight with that probability. Code with kFeatureExtraLightSampling only.
+template <uint32_t kFeatures, class Emit>
+PN_FN void light_cut_queries(const SceneView& scene, const IntegratorSettings& s, const Bsdf& bsdf,
+                             const SurfaceHit& hit, Vec3 wo, Vec3 beta, Rng& rng, Emit&& emit) {
+  if constexpr ((kFeatures & kFeatureExtraLightSampling) != 0) {
+    constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
+    const LightSampleContext ctx = light_sample_context<kFeatures>(s, hit.p, bsdf, wo);
+    const LightBvhQuery q = light_bvh_query<false>(ctx);
+    const LightCut cut = light_bvh_cut(scene.selection.bvh, q, s.slc_cut);
+    const uint32_t n = cut.count + (scene.selection.infinite_light >= 0 ? 1u : 0u);
+    for (uint32_t k = 0; k < n; ++k) {
+      const float u_select = rng.uniform();
+      const Vec2 u = rng.uniform2();
+      DirectSample d;
+      if (k < cut.count) {
+        const LightBvhPick pick = light_bvh_select_below<false>(scene.selection.bvh, q, cut.node[k], u_select);
+        d.sel.index = pick.light;
+        d.sel.pmf = pick.pmf;
+      } else {
+        d.sel.index = uint32_t(scene.selection.infinite_light);
+        d.sel.pmf = 1.f;
+      }
+      if (!(d.sel.pmf > 0.f)) continue;
+      d.ls = sample_light<kFeatures>(scene, s.strategy, load_light(scene.lights, d.sel.index), ctx, u,
+                                     environment_compensated(s));
+      if (!(d.ls.pdf > 0.f)) continue;
+      d.f = bsdf_eval<kSpecular>(bsdf, wo, d.ls.wi);
+      if (is_black(d.f)) continue;
+      ShadowQuery sq = direct_shadow_query<kFeatures>(s, bsdf, hit.p, hit.p_bound, wo, d);
+      sq.contribution = beta * sq.contribution;
+      emit(sq);
+    }
+  }
 }
 
 // The radiance of a chosen light sample (direct_shadow_query), its shadow ray traced now.
@@ -334,7 +391,8 @@ template <uint32_t kFeatures = kAllFeatures>
 PN_FN float bsdf_emission_weight(const SceneView& scene, const IntegratorSettings& s, const PrevVertex& prev,
                                  uint32_t index, Vec3 w) {
   const LightSampleContext ctx = prev.ctx();
-  const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), ctx, index) *
+  const float p_light = selection_pmf<kFeatures>(scene.selection, scene.num_lights, candidate_selection(s), ctx, index,
+                                                 s.slc_cut) *
                         light_pdf<kFeatures>(scene, s.strategy, load_light(scene.lights, index), ctx, w,
                                              environment_compensated(s));
   return mis_weight(s.mis, prev.bsdf_pdf, restir_mis_density(p_light, prev.light_candidates));
@@ -456,13 +514,21 @@ PN_FN void on_shadow_result(PathState& st, const ShadowQuery& q, bool blocked, R
 // estimate, but on the GPU's megakernel the light sample's state is dead before
 // the BSDF is sampled (measured on the H200: tracing it after the BSDF sample
 // cost 13% on cornell-sphere solid-angle and 37% with MIS).
+//
+// slc makes a query per node of its cut (light_cut_queries): with `now` each is traced and consumed here; else
+// every one goes to `more` (a driver's sink: more->push(query)), to be traced and consumed as a returned query
+// is, and none is returned. A driver that runs slc passes one or the other.
 struct NoShadowTracer {
   PN_FN bool occluded(const Ray&, float) const { return false; }
 };
+struct NoQuerySink {
+  PN_FN void push(const ShadowQuery&) {}
+};
 
-template <uint32_t kFeatures = kAllFeatures, class ShadowTracer = NoShadowTracer>
-PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const IntegratorSettings& s, const HitRecord& rec,
-                         RestirPrimaryOut* primary = nullptr, const ShadowTracer* now = nullptr) {
+template <uint32_t kFeatures = kAllFeatures, class ShadowTracer = NoShadowTracer, class QuerySink = NoQuerySink>
+PN_FN ShadowQuery on_hit(PathState& st, const SceneView& scene, const IntegratorSettings& s, const HitRecord& rec,
+                         RestirPrimaryOut* primary = nullptr, const ShadowTracer* now = nullptr,
+                         QuerySink* more = nullptr) {
   const bool nee = strategy_uses_nee(s.strategy);
   const bool mis = nee && s.mis != Mis::None;
   const bool restir = s.light_selection == LightSelection::Restir;
@@ -484,8 +550,14 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
   const Bsdf bsdf = surface_bsdf<kFeatures>(scene, hit, wo);
   if (is_black(bsdf.diffuse) && !bsdf.has_specular) return q;
 
-  // Next-event estimation: a light sample, its shadow ray left to the driver.
-  if (nee) {
+  // Next-event estimation: a light sample, its shadow ray left to the driver; slc's, one per node of its cut.
+  if ((kFeatures & kFeatureExtraLightSampling) && s.light_selection == LightSelection::Slc) {
+    if (nee)
+      light_cut_queries<kFeatures>(scene, s, bsdf, hit, wo, st.beta, rng, [&](const ShadowQuery& sq) {
+        if (now) on_shadow_result(st, sq, now->occluded(sq.ray, sq.tmax));
+        else more->push(sq);
+      });
+  } else if (nee) {
     float u_select = rng.uniform();
     Vec2 u_light = rng.uniform2();
     const DirectSample d =
@@ -517,7 +589,7 @@ PN_HD ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
   if (!(bs.pdf > 0.f)) return q;
   if (depth + 1 == s.max_depth && !last_vertex_adds<kFeatures>(scene, s)) return q;  // the vertex it finds adds nothing
   st.beta *= bs.weight;
-  st.prev.set_ctx(light_sample_context<(kFeatures & kFeatureSpecular) != 0>(s, hit.p, bsdf, wo));
+  st.prev.set_ctx(light_sample_context<kFeatures>(s, hit.p, bsdf, wo));
   st.prev.bsdf_pdf = bs.pdf;
   st.prev.light_candidates = restir && depth == 0 ? float(pn_max(1u, s.restir.candidates)) : 1.f;
 

@@ -280,11 +280,19 @@ PN_FN bool light_bvh_root_leaf_visible(const LightBvhView& v, const LightBvhQuer
 // children (the node itself was read as a child of its parent).
 // kSg: weigh nodes by the BSDF's lobes at ctx (sg-bvh).
 template <bool kSg = false>
+PN_FN LightBvhPick light_bvh_select_below(const LightBvhView& v, const LightBvhQuery& q, uint32_t node, float u);
+
+template <bool kSg = false>
 PN_FN LightBvhPick light_bvh_select(const LightBvhView& v, const LightSampleContext& ctx, float u) {
+  if (!v.nodes) return LightBvhPick();
+  return light_bvh_select_below<kSg>(v, light_bvh_query<kSg>(ctx), 0, u);
+}
+
+// The same from node `node` down (0: the root): a light of its subtree, with its probability given the node.
+template <bool kSg>
+PN_FN LightBvhPick light_bvh_select_below(const LightBvhView& v, const LightBvhQuery& q, uint32_t node, float u) {
   LightBvhPick pick;
-  if (!v.nodes) return pick;
-  const LightBvhQuery q = light_bvh_query<kSg>(ctx);
-  uint32_t node = 0, index = load_light_bvh_node(v.nodes, 0).index;
+  uint32_t index = load_light_bvh_node(v.nodes, node).index;
   float pmf = 1.f;
   while (!(index & kLightBvhLeaf)) {
     const LightBvhNode c0 = load_light_bvh_node(v.nodes, node + 1), c1 = load_light_bvh_node(v.nodes, index);
@@ -334,6 +342,118 @@ PN_FN float light_bvh_pmf(const LightBvhView& v, const LightSampleContext& ctx, 
   }
   if (node == 0 && !light_bvh_root_leaf_visible(v, q)) return 0.f;
   return pmf;
+}
+
+// --- Stochastic lightcuts (slc) -------------------------------------------------------
+//
+// Yuksel, "Stochastic Lightcuts", HPG 2019: a cut through the tree at the
+// shading point (nodes whose subtrees hold every light once) and one light
+// drawn in each node of it by the traversal from that node, each with its own
+// shadow ray; their sum estimates the direct light. A light's probability is its
+// traversal's from the one node of the cut above it (light_cut_pmf), which is
+// what weighs a BSDF-sampled hit on it by MIS.
+//
+// The cut grows from the root: the node of the cut with the largest importance
+// (the bound above) is replaced by its children, until the cut holds `max_nodes`
+// nodes or leaves only. A child of importance 0 is left out (none of its lights
+// can contribute at p). Yuksel refines by an error bound, the node's importance
+// times how much its lights' geometric terms can differ; the importance alone is
+// a simplification: it refines where the most light may come from. The cut is a
+// function of the shading point alone (no random numbers), as the pmf needs.
+constexpr uint32_t kMaxLightCut = 64;
+
+struct LightCut {
+  uint32_t count = 0;
+  uint32_t node[kMaxLightCut];
+};
+
+// Whether `node` is in the cut.
+PN_FN bool light_cut_holds(const LightCut& c, uint32_t node) {
+  for (uint32_t k = 0; k < c.count; ++k)
+    if (c.node[k] == node) return true;
+  return false;
+}
+
+// The cut of at most max_nodes (1..kMaxLightCut) nodes at q (the bound's importance; empty where no light can
+// contribute).
+PN_FN_CALLED LightCut light_bvh_cut(const LightBvhView& v, const LightBvhQuery& q, uint32_t max_nodes) {
+  LightCut c;
+  if (!v.nodes) return c;
+  max_nodes = pn_min(pn_max(max_nodes, 1u), kMaxLightCut);
+  float importance[kMaxLightCut];
+  uint32_t index[kMaxLightCut];  // each node's `index`: its second child, or its light with kLightBvhLeaf
+  const LightBvhNode root = load_light_bvh_node(v.nodes, 0);
+  importance[0] = light_bvh_importance(root, q.p, q.n);
+  if (!(importance[0] > 0.f)) return c;
+  c.node[0] = 0;
+  index[0] = root.index;
+  c.count = 1;
+  for (;;) {
+    uint32_t best = kMaxLightCut;
+    float most = 0.f;
+    for (uint32_t k = 0; k < c.count; ++k)
+      if (!(index[k] & kLightBvhLeaf) && importance[k] > most) {
+        best = k;
+        most = importance[k];
+      }
+    if (best == kMaxLightCut) break;  // leaves only
+    const uint32_t a = c.node[best] + 1, b = index[best];
+    const LightBvhNode na = load_light_bvh_node(v.nodes, a), nb = load_light_bvh_node(v.nodes, b);
+    const float ia = light_bvh_importance(na, q.p, q.n), ib = light_bvh_importance(nb, q.p, q.n);
+    if (ia > 0.f && ib > 0.f) {
+      if (c.count == max_nodes) break;  // no room for both
+      c.node[c.count] = b;
+      importance[c.count] = ib;
+      index[c.count] = nb.index;
+      ++c.count;
+    }
+    if (ia > 0.f || ib > 0.f) {  // the node replaced by its child of importance (the first where both have)
+      const bool first = ia > 0.f;
+      c.node[best] = first ? a : b;
+      importance[best] = first ? ia : ib;
+      index[best] = first ? na.index : nb.index;
+    } else {  // neither child has importance: the node leaves the cut
+      --c.count;
+      c.node[best] = c.node[c.count];
+      importance[best] = importance[c.count];
+      index[best] = index[c.count];
+      if (c.count == 0) break;
+    }
+  }
+  return c;
+}
+
+// The probability that the cut's sample of the node above `light` picks it (light_bvh_select_below from that
+// node): the traversal's ratios below it, in the same floating-point operations; 0 where no node of the cut holds
+// the light (it is outside the tree, or below a node of no importance at q).
+PN_FN_CALLED float light_cut_pmf(const LightBvhView& v, const LightBvhQuery& q, const LightCut& c, uint32_t light) {
+  if (!v.nodes) return 0.f;
+  uint64_t trail = v.trails[light];
+  if (trail == 0) return 0.f;
+  uint32_t node = 0, index = load_light_bvh_node(v.nodes, 0).index;
+  bool below = light_cut_holds(c, 0);
+  float pmf = 1.f;
+  for (; trail > 1u; trail >>= 1) {
+    if (!below) {  // above the cut: follow the trail
+      node = (trail & 1u) ? index : node + 1;
+      index = load_light_bvh_node(v.nodes, node).index;
+      below = light_cut_holds(c, node);
+      continue;
+    }
+    const LightBvhNode c0 = load_light_bvh_node(v.nodes, node + 1), c1 = load_light_bvh_node(v.nodes, index);
+    const float p0 = light_bvh_first_probability<false>(c0, c1, q);
+    if (p0 < 0.f) return 0.f;
+    if (trail & 1u) {
+      pmf *= 1.f - p0;
+      node = index;
+      index = c1.index;
+    } else {
+      pmf *= p0;
+      node = node + 1;
+      index = c0.index;
+    }
+  }
+  return below ? pmf : 0.f;
 }
 
 }  // namespace pn

@@ -5,6 +5,8 @@
 // samples, for hits on emitting surfaces and for rays that leave the scene.
 #pragma once
 
+#include <type_traits>
+
 #include "common.h"
 #include "environment.h"
 #include "light_selection.h"
@@ -93,6 +95,12 @@ PN_FN float light_pdf_as(const SceneView& scene, const Light& l, const LightSamp
   return 0.f;
 }
 
+// The sampler of a strategy in code compiled with kFeatures: ltc's only with kFeatureExtraLightSampling (else
+// projected-solid-angle's, which ltc is where the BSDF has no GGX lobe: core/features.h).
+template <class S, uint32_t kFeatures>
+using StrategySampler = std::conditional_t<std::is_same_v<S, LtcSampling> && !(kFeatures & kFeatureExtraLightSampling),
+                                           ProjectedSolidAngleSampling, S>;
+
 // The run-time strategy: one `switch` (the GPU compiles one program per
 // strategy, where it folds away).
 template <uint32_t kFeatures = kAllFeatures>
@@ -101,7 +109,7 @@ PN_FN LightSample sample_light(const SceneView& scene, Strategy strategy, const 
   switch (strategy) {
 #define PN_X(e, name, impl, nee, desc) \
   case Strategy::e:                    \
-    return sample_light_as<impl, kFeatures>(scene, l, ctx, u, compensated);
+    return sample_light_as<StrategySampler<impl, kFeatures>, kFeatures>(scene, l, ctx, u, compensated);
     PN_STRATEGIES(PN_X)
 #undef PN_X
     case Strategy::Count:
@@ -116,7 +124,7 @@ PN_FN float light_pdf(const SceneView& scene, Strategy strategy, const Light& l,
   switch (strategy) {
 #define PN_X(e, name, impl, nee, desc) \
   case Strategy::e:                    \
-    return light_pdf_as<impl, kFeatures>(scene, l, ctx, wi, compensated);
+    return light_pdf_as<StrategySampler<impl, kFeatures>, kFeatures>(scene, l, ctx, wi, compensated);
     PN_STRATEGIES(PN_X)
 #undef PN_X
     case Strategy::Count:

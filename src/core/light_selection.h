@@ -12,6 +12,7 @@
 
 #include "common.h"
 #include "enum_names.h"
+#include "features.h"
 #include "light_bvh.h"
 #include "lights.h"
 #include "sampling.h"
@@ -27,7 +28,9 @@ namespace pn {
   X(Restir, "restir", "ReSTIR DI (Bitterli et al. 2020): M candidates from --restir-source resampled by their " \
                       "unshadowed contribution, spatial reuse between pixels (--restir-spatial)")                 \
   X(SgBvh, "sg-bvh", "the light BVH with each node weighed by the BSDF's lobes, spherical Gaussians of the "      \
-                     "node's light and of the diffuse and GGX lobes (after Tokuyoshi et al. 2024)")
+                     "node's light and of the diffuse and GGX lobes (after Tokuyoshi et al. 2024)")              \
+  X(Slc, "slc", "stochastic lightcuts (Yuksel 2019): a cut of at most --slc-cut nodes of the light BVH at the "  \
+                "shading point, a light sample and shadow ray in each; the environment sampled besides")
 
 enum class LightSelection : uint32_t {
 #define PN_X(e, name, desc) e,
@@ -114,11 +117,15 @@ struct SelectedLight {
   float pmf = 0.f;  // 0: nothing selected (no lights)
 };
 
+// sg-bvh's lobes only where kFeatures has kFeatureExtraLightSampling (else it selects as bvh: core/features.h).
+template <uint32_t kFeatures = kAllFeatures>
 PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightSelection method,
                                  const LightSampleContext& ctx, float u) {
+  constexpr bool kExtra = (kFeatures & kFeatureExtraLightSampling) != 0;
   SelectedLight s;
   if (n == 0) return s;
   switch (method) {
+    case LightSelection::Slc:  // one light of a cut of one node: the light BVH's (the integrator samples whole cuts)
     case LightSelection::Bvh:
     case LightSelection::SgBvh:
       if (v.bvh.nodes || v.infinite_light >= 0) {
@@ -129,8 +136,8 @@ PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightS
           return s;
         }
         const float ub = pn_min((u - p_inf) / (1.f - p_inf), kOneMinusEpsilon);
-        const LightBvhPick pick = method == LightSelection::SgBvh ? light_bvh_select<true>(v.bvh, ctx, ub)
-                                                                  : light_bvh_select<false>(v.bvh, ctx, ub);
+        const LightBvhPick pick = kExtra && method == LightSelection::SgBvh ? light_bvh_select<kExtra>(v.bvh, ctx, ub)
+                                                                            : light_bvh_select<false>(v.bvh, ctx, ub);
         s.index = pick.light;
         s.pmf = pick.pmf * (1.f - p_inf);
         return s;
@@ -154,17 +161,28 @@ PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightS
 }
 
 // P(light i | x), as select_light() chooses.
+// slc: the probability of i's sample in a cut of at most `cut_nodes` nodes (the environment's: 1), a light's in
+// the one sample of its part of the lights (code with kFeatureExtraLightSampling; else as bvh).
+template <uint32_t kFeatures = kAllFeatures>
 PN_FN float selection_pmf(const LightSelectionView& v, uint32_t n, LightSelection method, const LightSampleContext& ctx,
-                          uint32_t i) {
+                          uint32_t i, uint32_t cut_nodes = 1) {
+  constexpr bool kExtra = (kFeatures & kFeatureExtraLightSampling) != 0;
   if (i >= n) return 0.f;
   switch (method) {
+    case LightSelection::Slc:
+      if constexpr (kExtra) {
+        if (int32_t(i) == v.infinite_light) return 1.f;
+        const LightBvhQuery q = light_bvh_query<false>(ctx);
+        return light_cut_pmf(v.bvh, q, light_bvh_cut(v.bvh, q, cut_nodes), i);
+      }
+      [[fallthrough]];
     case LightSelection::Bvh:
     case LightSelection::SgBvh:
       if (v.bvh.nodes || v.infinite_light >= 0) {
         const float p_inf = v.infinite_light >= 0 ? v.infinite_probability : 0.f;
         if (int32_t(i) == v.infinite_light) return p_inf;
-        const float pmf =
-            method == LightSelection::SgBvh ? light_bvh_pmf<true>(v.bvh, ctx, i) : light_bvh_pmf<false>(v.bvh, ctx, i);
+        const float pmf = kExtra && method == LightSelection::SgBvh ? light_bvh_pmf<kExtra>(v.bvh, ctx, i)
+                                                                    : light_bvh_pmf<false>(v.bvh, ctx, i);
         return pmf * (1.f - p_inf);
       }
       [[fallthrough]];

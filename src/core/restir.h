@@ -309,8 +309,8 @@ PN_HD Vec3 restir_shade(const Tracer& tracer, const SceneView& scene, const Inte
   if constexpr (tracer_records_only<Tracer>::value) return Vec3(0.f);  // its one query is made: the rest is discarded
   float w = 1.f;
   if (s.mis != Mis::None) {
-    const LightSampleContext ctx = light_sample_context<(kFeatures & kFeatureSpecular) != 0>(s, q.p, bsdf, q.wo);
-    const float p_light = selection_pmf(scene.selection, scene.num_lights, candidate_selection(s), ctx, r.s.light) *
+    const LightSampleContext ctx = light_sample_context<kFeatures>(s, q.p, bsdf, q.wo);
+    const float p_light = selection_pmf<kFeatures>(scene.selection, scene.num_lights, candidate_selection(s), ctx, r.s.light) *
                           light_pdf<kFeatures>(scene, s.strategy, scene.lights[r.s.light], ctx, t.wi);
     w = mis_weight(s.mis, restir_mis_density(p_light, float(pn_max(1u, s.restir.candidates))),
                    bsdf_pdf<(kFeatures & kFeatureSpecular) != 0>(bsdf, q.wo, t.wi));

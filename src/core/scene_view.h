@@ -7,6 +7,7 @@
 
 #include "common.h"
 #include "environment.h"
+#include "features.h"
 #include "geometry.h"
 #include "light_selection.h"
 #include "lights.h"
@@ -85,21 +86,7 @@ struct SceneView {
   Vec3 background;  // radiance of rays that escape when there is no environment map
 };
 
-// --- Features ------------------------------------------------------------------
-
-// What a scene uses beyond Lambertian, untextured, flat-shaded surfaces lit by
-// lights with a surface. The shading code below is templated on a mask of these:
-// with a bit off, its code compiles away. The GPU backend builds one raygen
-// program per strategy and per feature level and runs the smallest that covers
-// the scene, because its megakernel is bound by instruction fetch and code size
-// (src/backends/optix/NOTES.md); the CPU backend always runs kAllFeatures.
-enum SceneFeature : uint32_t {
-  kFeatureShading = 1u << 0,      // per-vertex normals or texture coordinates
-  kFeatureTextures = 1u << 1,     // texture lookups: material textures, normal maps, emission textures
-  kFeatureSpecular = 1u << 2,     // a GGX lobe: a material with metallic > 0 or specular > 0
-  kFeatureEnvironment = 1u << 3,  // an environment map
-};
-constexpr uint32_t kAllFeatures = kFeatureShading | kFeatureTextures | kFeatureSpecular | kFeatureEnvironment;
+// --- Features: core/features.h ----------------------------------------------------
 
 // --- Hits ----------------------------------------------------------------------
 

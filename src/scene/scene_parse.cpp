@@ -96,7 +96,7 @@ void parse_restir(const Node& n, RestirSettings* r) {
   if (n.has("source")) {
     Node src = n.at("source");
     LightSelection m;
-    if (!find_light_selection(src.string(), &m) || m == LightSelection::Restir)
+    if (!find_light_selection(src.string(), &m) || m == LightSelection::Restir || m == LightSelection::Slc)
       src.fail("unknown source '" + src.string() + "' (expected one of: uniform, power, bvh, sg-bvh)");
     r->source = m;
   }
@@ -104,7 +104,7 @@ void parse_restir(const Node& n, RestirSettings* r) {
 
 void parse_render(const Node& n, Scene& s) {
   n.expect_object({"width", "height", "spp", "max_depth", "rr_depth", "strategy", "mis", "mis_compensation",
-                   "light_selection", "restir", "seed"});
+                   "light_selection", "slc_cut", "restir", "seed"});
   RenderSettings& r = s.render;
   if (n.has("width")) r.width = n.at("width").integer(1, kMaxResolution);
   if (n.has("height")) r.height = n.at("height").integer(1, kMaxResolution);
@@ -121,6 +121,7 @@ void parse_render(const Node& n, Scene& s) {
   choice("mis", &r.integrator.mis, find_mis, mis_names());
   if (n.has("mis_compensation")) r.integrator.mis_compensation = n.at("mis_compensation").boolean();
   choice("light_selection", &r.integrator.light_selection, find_light_selection, light_selection_names());
+  if (n.has("slc_cut")) r.integrator.slc_cut = uint32_t(n.at("slc_cut").integer(1, long(kMaxLightCut)));
   if (n.has("restir")) parse_restir(n.at("restir"), &r.integrator.restir);
   if (n.has("seed")) r.seed = uint32_t(n.at("seed").integer(0, long(std::numeric_limits<uint32_t>::max())));
 }

@@ -61,7 +61,7 @@ expect_usage(--threads "" ${R} --threads -1)
 expect_usage(--strategies "unknown strategy 'nope'" ${PENUMBRA} bench --strategies area,nope)
 expect_usage(--selections "unknown light selection 'area'" ${PENUMBRA} bench --selections area)
 expect_usage(--mis "unknown MIS mode 'nope'" ${PENUMBRA} converge cornell-sphere --mis none,nope)
-expect_usage(--reference-selection "unknown light selection 'restir' (expected one of: uniform, power, bvh, sg-bvh)"
+expect_usage(--reference-selection "unknown light selection 'restir' (expected one of: uniform, power, bvh, sg-bvh, slc)"
              ${PENUMBRA} converge cornell-sphere --reference-selection restir)
 expect_usage("converge: --frame-spp" "a power of two, not 3" ${PENUMBRA} converge cornell-sphere --backend cpu
              --width 16 --height 16 --frame-spp 3 --out ${WORK}/cv)

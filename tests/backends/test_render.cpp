@@ -189,6 +189,9 @@ TEST(ManyLights, SelectionMethodsAgreeWithPower) {
       {"bvh", {"render.mis=none"}},
       {"sg-bvh", {}},  // weighed by the lobes: the glossy half's GGX, the matte half's cosine
       {"sg-bvh", {"render.mis=none"}},
+      {"slc", {}},  // stochastic lightcuts: a cut of 8 nodes, a light sample each
+      {"slc", {"render.mis=none", "render.slc_cut=32"}},
+      {"slc", {"render.slc_cut=2", "render.strategy=area"}},
       {"restir", {}},                                                         // unbiased, 2 spatial passes
       {"restir", {"render.restir.spatial_passes=0"}},                         // candidates only
       {"restir", {"render.restir.source=bvh", "render.restir.candidates=8"}},

@@ -212,6 +212,63 @@ TEST(LightBvh, PmfEqualsTheTraversalsProbabilityExhaustively) {
   }
 }
 
+// Stochastic lightcuts: the cut at a shading point holds at most its size in nodes, no two of which hold the
+// same light; the traversal from each node picks its lights with light_cut_pmf()'s probabilities (walked
+// exhaustively); a light has a probability under the cut exactly where bvh gives it one; and the cut of one node
+// is the root, with bvh's very probabilities.
+TEST(LightCut, PartitionsTheLightsAndItsPmfIsTheTraversals) {
+  for (int n : {1, 2, 5, 40, 300}) {
+    const std::vector<Light> lights = random_lights(n, uint32_t(300 + n));
+    const LightBvh t = build_light_bvh(lights, light_powers(lights));
+    const LightBvhView v = view_of(t);
+    Rng r(0, 0, uint32_t(n));
+    int cuts_checked = 0;
+    for (int k = 0; k < 20; ++k) {
+      const LightSampleContext ctx = random_context(r);
+      const LightBvhQuery q = light_bvh_query<false>(ctx);
+      for (uint32_t size : {1u, 2u, 7u, 64u}) {
+        const LightCut cut = light_bvh_cut(v, q, size);
+        ASSERT_LE(cut.count, size);
+        std::vector<double> walk(size_t(n), 0.0);
+        std::vector<int> holders(size_t(n), 0);
+        for (uint32_t c = 0; c < cut.count; ++c) {
+          std::vector<double> below(size_t(n), 0.0);
+          exhaustive<false>(v, cut.node[c], 1.f, q, &below);
+          for (int i = 0; i < n; ++i)
+            if (below[size_t(i)] > 0.0) {
+              walk[size_t(i)] = below[size_t(i)];
+              ++holders[size_t(i)];
+            }
+        }
+        for (int i = 0; i < n; ++i) {
+          ASSERT_LE(holders[size_t(i)], 1) << "light " << i << " under two nodes of the cut";
+          const float pmf = light_cut_pmf(v, q, cut, uint32_t(i));
+          EXPECT_NEAR(pmf, walk[size_t(i)], 1e-6 * std::max(1.0, walk[size_t(i)])) << "n " << n << " light " << i;
+          EXPECT_EQ(pmf > 0.f, light_bvh_pmf<false>(v, ctx, uint32_t(i)) > 0.f) << "n " << n << " light " << i;
+          if (size == 1) {
+            EXPECT_EQ(pmf, light_bvh_pmf<false>(v, ctx, uint32_t(i)));
+          }
+        }
+        // Picks carry the pmf of the light they pick.
+        for (uint32_t c = 0; c < cut.count; ++c)
+          for (float u : {0.01f, 0.37f, 0.8f}) {
+            const LightBvhPick pick = light_bvh_select_below<false>(v, q, cut.node[c], u);
+            if (pick.pmf > 0.f) {
+              EXPECT_EQ(pick.pmf, light_cut_pmf(v, q, cut, pick.light));
+            }
+          }
+        if (cut.count > 1) ++cuts_checked;
+        if (size == 64 && n <= 40 && cut.count > 0) {  // room for every light: leaves only
+          for (uint32_t c = 0; c < cut.count; ++c) EXPECT_TRUE(v.nodes[cut.node[c]].index & kLightBvhLeaf);
+        }
+      }
+    }
+    if (n >= 5) {
+      EXPECT_GT(cuts_checked, 10) << "n " << n;
+    }
+  }
+}
+
 // Chi-square of selection frequencies against pmf() on a thousand lights.
 TEST(LightBvh, SelectionFrequenciesMatchPmfOnAThousandLights) {
   const std::vector<Light> lights = random_lights(1000, 77);
@@ -414,10 +471,19 @@ test::MeanEstimator field_irradiance(const SphereField& field, const IntegratorS
   Rng rng(0, 0, seed);
   test::MeanEstimator est;
   for (int i = 0; i < samples; ++i) {
-    const float us = rng.uniform();
-    const Vec2 u = rng.uniform2();
-    const DirectSample d = choose_direct_sample(scene, s, white, x, n, ris, us, u, &rng);
-    double e = kPi * shade_direct_sample(NoOccluder{}, s, white, x, 0.f, n, d).x;
+    double e = 0;
+    if (s.light_selection == LightSelection::Slc) {  // a sample per node of the cut
+      SurfaceHit hit;
+      hit.p = x;
+      hit.n = hit.ns = n;
+      light_cut_queries<kAllFeatures>(scene, s, white, hit, n, Vec3(1.f), rng,
+                                      [&](const ShadowQuery& q) { e += kPi * q.contribution.x; });
+    } else {
+      const float us = rng.uniform();
+      const Vec2 u = rng.uniform2();
+      const DirectSample d = choose_direct_sample(scene, s, white, x, n, ris, us, u, &rng);
+      e = kPi * shade_direct_sample(NoOccluder{}, s, white, x, 0.f, n, d).x;
+    }
     const float ul = rng.uniform();
     const Vec2 ub = rng.uniform2();
     if (s.mis != Mis::None) {
@@ -464,6 +530,35 @@ TEST(Restir, ResampledNextEventEstimationMatchesClosedForm) {
   bvh.light_selection = LightSelection::Bvh;
   const test::MeanEstimator b = field_irradiance(field, bvh, 40000, 3);
   EXPECT_NEAR(b.mean(), field.exact, 4 * b.std_error());
+}
+
+// Stochastic lightcuts: the sum of a cut's samples is the irradiance, with and without MIS (the BSDF sample weighed
+// against the probability of the light's node's sample), and a cut of 8 nodes has far less variance than one
+// sample by the light BVH; a cut of one node is bvh, sample for sample.
+TEST(LightCut, EstimatorMatchesClosedFormAndBeatsOneSample) {
+  const SphereField field(200);
+  IntegratorSettings bvh;
+  bvh.strategy = Strategy::SolidAngle;
+  bvh.mis = Mis::None;
+  bvh.light_selection = LightSelection::Bvh;
+  const test::MeanEstimator b = field_irradiance(field, bvh, 40000, 3);
+  for (Mis mis : {Mis::None, Mis::Power})
+    for (uint32_t cut : {1u, 8u, 64u}) {
+      IntegratorSettings s = bvh;
+      s.mis = mis;
+      s.light_selection = LightSelection::Slc;
+      s.slc_cut = cut;
+      const test::MeanEstimator e = field_irradiance(field, s, 20000, 4 + cut);
+      EXPECT_NEAR(e.mean(), field.exact, 4 * e.std_error()) << "cut " << cut << ", " << mis_name(mis);
+      if (cut == 8 && mis == Mis::None) {
+        EXPECT_LT(e.std_error() * std::sqrt(20000.0), 0.5 * b.std_error() * std::sqrt(40000.0));
+      }
+    }
+  IntegratorSettings one = bvh;
+  one.light_selection = LightSelection::Slc;
+  one.slc_cut = 1;
+  const test::MeanEstimator o = field_irradiance(field, one, 40000, 3);
+  EXPECT_EQ(o.mean(), b.mean()) << "a cut of one node is the light BVH's sample";
 }
 
 // Spatial reuse against an exact answer where it is hardest: a frame of

@@ -12,7 +12,9 @@
 // to a last vertex that can add nothing.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
+#include <iostream>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -113,6 +115,9 @@ const Case kCases[] = {
                       "render.mis=none"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.temporal=true",
                       "render.restir.spatial_passes=1"}},
+    // slc: a shadow query per node of the cut (on_hit's `more`), consumed in the order they were made.
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=slc", "render.slc_cut=8"}},
+    {"glossy", {"render.light_selection=slc", "render.slc_cut=4", "render.max_depth=3", "render.rr_depth=1"}},
 };
 
 std::string case_name(const ::testing::TestParamInfo<Case>& info) {
@@ -171,9 +176,36 @@ const Case kWavefrontCases[] = {
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.neighbors=6",
                       "render.restir.radius=4"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=power", "render.max_depth=1"}},
+    // slc with a cut of one node: one query a vertex, in a pool whose waves hold half its paths (a slot kept for
+    // the environment's), and added atomically (WavefrontView::shared_slots): the same sums.
+    {"many-spheres", {"defaults.lights=200", "render.light_selection=slc", "render.slc_cut=1"}},
 };
 
 INSTANTIATE_TEST_SUITE_P(Builtins, Wavefront, ::testing::ValuesIn(kWavefrontCases), case_name);
+
+// slc with larger cuts: several queries of a path in the shadow queue at once, their results added in no set order,
+// so the wavefront's image is the depth-first one up to the rounding of those sums.
+TEST(WavefrontSlc, EqualsDepthFirstUpToTheOrderOfSums) {
+  for (const Case& c : {Case{"many-spheres", {"defaults.lights=200", "render.light_selection=slc",
+                                              "render.slc_cut=8"}},
+                        Case{"glossy", {"render.light_selection=slc", "render.slc_cut=3", "render.max_depth=3"}}}) {
+    std::string missing;
+    const Scene scene = load_case(c, &missing);
+    if (!missing.empty()) {
+      std::cout << "skipped " << describe(c) << ": " << missing << "\n";
+      continue;
+    }
+    const Image depth = render(scene, CpuSchedule::DepthFirst, 5, 12, 3);
+    ASSERT_GT(total(depth.sum), 0.0) << describe(c);
+    for (uint32_t pool : {700u, 0u}) {
+      const Image wave = render(scene, CpuSchedule::Wavefront, 5, 12, 3, pool);
+      ASSERT_EQ(depth.sum.size(), wave.sum.size());
+      for (size_t i = 0; i < depth.sum.size(); ++i)
+        ASSERT_NEAR(wave.sum[i], depth.sum[i], 1e-5 * (std::fabs(depth.sum[i]) + 1e-3))
+            << describe(c) << ", pool " << pool << ", value " << i;
+    }
+  }
+}
 
 // restir's reuse passes keep each pixel's shadow queries in the pool: a pool smaller than one pixel's (16
 // neighbours with the generalized balance heuristic: 272) is a one-line error; one that holds exactly one pixel's

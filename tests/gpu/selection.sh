@@ -7,8 +7,9 @@
 # Every METHOD (method[:extra args, comma-separated]; default all of these; --part K/N: the K-th, (K+N)-th, ...
 # of them, so that N tests share a scene's methods): uniform, bvh, restir unbiased with
 # spatial reuse, restir without reuse, with BVH candidates, with pairwise MIS (with and without visibility reuse),
-# the BIASED restir (CPU and GPU must agree on its expectation too), restir with temporal reuse, and restir without
-# reuse on the megakernel. Solid-angle with MIS power, at 128x72 and 1024 spp; the CPU with seed 0 against the GPU
+# the BIASED restir (CPU and GPU must agree on its expectation too), restir with temporal reuse, restir without
+# reuse on the megakernel, and stochastic lightcuts (slc: several shadow queries a vertex in the wavefront's queue)
+# with cuts of 8 and 1 nodes and on the megakernel. Solid-angle with MIS power, at 128x72 and 1024 spp; the CPU with seed 0 against the GPU
 # with seed 1, on the wavefront with both trace stages (`--traversal cuda`, `--traversal optix`: restir's frame
 # passes with either), the megakernel where the method says so; bvh and restir also with the same seed. On
 # many-spheres (at 2000 lights) also: restir with reuse on the megakernel is a one-line error, never a hang.
@@ -67,7 +68,8 @@ selections=${methods[*]}
 [[ -n $selections ]] || selections="uniform bvh sg-bvh restir restir:--restir-spatial=0
   restir:--restir-source=bvh,--restir-candidates=8 restir:--restir-pairwise
   restir:--restir-pairwise,--restir-unshadowed restir:--restir-unshadowed,--restir-source=bvh,--restir-candidates=8
-  restir:--restir-biased restir:--restir-temporal restir:--megakernel,--restir-spatial=0"
+  restir:--restir-biased restir:--restir-temporal restir:--megakernel,--restir-spatial=0
+  slc slc:--slc-cut=1 slc:--megakernel"
 selections=$(tr -s ' \n' '\n\n' <<<"$selections" | awk -v k="${part%/*}" -v n="${part#*/}" 'NF && (++i - k) % n == 0')
 echo "== light selection on $scene: CPU vs GPU at ${width}x${height} (part $part: $(xargs <<<"$selections"))"
 # restir's reuse has no megakernel path (core/restir.h): --megakernel must say so in one line and exit non-zero,

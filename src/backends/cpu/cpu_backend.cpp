@@ -356,6 +356,12 @@ class CpuBackend final : public Backend {
     std::vector<HitRecord> hits(n);
     std::vector<uint8_t> found(n), blocked(n);
     std::vector<ShadowQuery> queries(n);  // kind None: nothing pending
+    // slc's queries (on_hit's `more`), each with its path.
+    struct MoreQueries {
+      std::vector<std::pair<size_t, ShadowQuery>> queries;
+      size_t path = 0;
+      void push(const ShadowQuery& q) { queries.emplace_back(path, q); }
+    } more;
     for (bool shaded = true; shaded;) {
       for (size_t i = 0; i < n; ++i)
         if (pool[i].active) found[i] = tracer.intersect(pool[i].ray, kInf, &hits[i]);
@@ -366,11 +372,16 @@ class CpuBackend final : public Backend {
           on_shadow_result(pool[i], queries[i], blocked[i] != 0, primary ? &primary[i] : nullptr);
           queries[i] = ShadowQuery();
         }
+      for (const auto& [i, q] : more.queries) on_shadow_result(pool[i], q, tracer.occluded(q.ray, q.tmax));
+      more.queries.clear();
       shaded = false;
       for (size_t i = 0; i < n; ++i) {
         if (!pool[i].active) continue;
         shaded = true;
-        if (found[i]) queries[i] = on_hit(pool[i], view_, s, hits[i], primary ? &primary[i] : nullptr);
+        more.path = i;
+        if (found[i])
+          queries[i] = on_hit(pool[i], view_, s, hits[i], primary ? &primary[i] : nullptr,
+                              static_cast<const NoShadowTracer*>(nullptr), &more);
         else on_miss(pool[i], view_, s);
       }
     }
@@ -470,10 +481,11 @@ class CpuBackend final : public Backend {
     const IntegratorSettings& s = frame.integrator;
     WavefrontView& w = hw.w;
     w.restir = restir;
-    const uint32_t capacity = w.capacity;
+    w.shared_slots = light_samples_per_vertex(s) > 1 ? 1u : 0u;
+    const uint32_t capacity = w.capacity, paths = wave_paths(capacity, s);
     Tracer tracer{this};
-    for (uint64_t k0 = 0; k0 < items; k0 += capacity) {
-      hw.wave = WaveSpec{k0, uint32_t(std::min<uint64_t>(capacity, items - k0)), first_sample, pixels, frame.seed};
+    for (uint64_t k0 = 0; k0 < items; k0 += paths) {
+      hw.wave = WaveSpec{k0, uint32_t(std::min<uint64_t>(paths, items - k0)), first_sample, pixels, frame.seed};
       parallel_for(capacity, [&](uint32_t i) { generate_camera_ray(i, w, frame.camera, s); });
       // max_depth + 1 iterations (wavefront.h); the GPU's graph runs exactly these, so more is an error here.
       for (int it = 0, cur = 0; hw.counts[cur] > 0 || hw.counts[2] > 0; ++it, cur ^= 1) {

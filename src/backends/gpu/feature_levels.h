@@ -15,7 +15,11 @@ namespace gpu {
 // GGX, texture and environment code in its megakernel.
 constexpr uint32_t kNumFeatureLevels = 3;
 enum : uint32_t { kFeatureLevel_basic = 0, kFeatureLevel_textured = 1, kFeatureLevel_full = 2 };
-constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {0u, kFeatureShading | kFeatureTextures, kAllFeatures};
+// Every level holds the code of light sampling by the BSDF's lobes (kFeatureExtraLightSampling): the megakernel runs ltc and
+// sg-bvh at any level; the wavefront's shading kernels take it out where the configuration has neither.
+constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {kFeatureExtraLightSampling,
+                                                        kFeatureShading | kFeatureTextures | kFeatureExtraLightSampling,
+                                                        kAllFeatures};
 constexpr const char* kFeatureLevelNames[kNumFeatureLevels] = {"basic", "textured", "full"};
 
 }  // namespace gpu

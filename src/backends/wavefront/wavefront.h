@@ -257,7 +257,16 @@ struct WavefrontView {
   RayOrder ray_order;                // null pointers: the bounces' ray queues traced in queue order
   uint32_t capacity = 0;
   RestirFrame restir;
+  // 1: a path may have several shadow queries in the queue at once (slc: one per node of its cut), whose results
+  // are added to its radiance atomically, in no set order.
+  uint32_t shared_slots = 0;
 };
+
+// The paths a wave of a pool of `capacity` holds: fewer than the pool where a vertex makes several shadow queries
+// (slc), so that the shadow queue, as long as the pool, holds every query of a bounce.
+PN_FN uint32_t wave_paths(uint32_t capacity, const IntegratorSettings& s) {
+  return pn_max(capacity / light_samples_per_vertex(s), 1u);
+}
 
 // Bytes of one path's state and queue entries: what the pool costs per slot.
 constexpr uint64_t kWavefrontBytesPerPath =
@@ -378,6 +387,28 @@ PN_FN void add_radiance(const WavefrontView& w, uint32_t slot, const Vec3& L) {
   if (L.x != 0.f || L.y != 0.f || L.z != 0.f) w.pool.L[slot] = w.pool.L[slot] + L;
 }
 
+// x += v by any number of threads at once.
+PN_FN void atomic_add(float* x, float v) {
+#if defined(__CUDA_ARCH__)
+  atomicAdd(x, v);
+#else
+  float old, sum;
+  __atomic_load(x, &old, __ATOMIC_RELAXED);
+  do {
+    sum = old + v;
+  } while (!__atomic_compare_exchange(x, &old, &sum, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED));
+#endif
+}
+
+// add_radiance where other threads may add to the same slot (WavefrontView::shared_slots).
+PN_FN void add_radiance_shared(const WavefrontView& w, uint32_t slot, const Vec3& L) {
+  if (L.x == 0.f && L.y == 0.f && L.z == 0.f) return;
+  float* x = &w.pool.L[slot].x;
+  atomic_add(x, L.x);
+  atomic_add(x + 1, L.y);
+  atomic_add(x + 2, L.z);
+}
+
 // The pixel of the item in `slot`.
 PN_FN uint32_t item_pixel(const WavefrontView& w, uint32_t slot) {
   return uint32_t((w.wave->first_item + slot) % w.wave->pixels);
@@ -443,7 +474,8 @@ PN_FN void apply_shadow_result(uint32_t j, const WavefrontView& w, bool blocked)
   q.kind = ShadowKind::Radiance;
   q.contribution = w.shadow.contribution[j];
   on_shadow_result(st, q, blocked);  // st.L from 0, as in shade
-  add_radiance(w, entry, st.L);
+  if (w.shared_slots) add_radiance_shared(w, entry, st.L);
+  else add_radiance(w, entry, st.L);
 }
 
 PN_FN void apply_shadow_result(uint32_t j, const WavefrontView& w) {
@@ -456,6 +488,22 @@ PN_FN void begin_bounce(const WavefrontView& w, int next) {
   *w.shadow.count = 0;
 }
 
+// Where shade puts a vertex's queries beyond the one on_hit returns (slc's, on_hit's `more`): the shadow queue.
+struct ShadowQueueSink {
+  const WavefrontView* w;
+  uint32_t slot;
+  bool ordered;
+  uint32_t pushed = 0;
+  PN_FN void push(const ShadowQuery& q) {
+    const uint32_t k = queue_push(w->shadow.count);
+    if (ordered) queue_order_count(w->shadow_order, k, shadow_direction_cell(q.ray.d));
+    store_trace_ray(w->shadow.rays + k, q.ray, q.tmax);
+    w->shadow.slot[k] = slot;
+    w->shadow.contribution[k] = q.contribution;
+    ++pushed;
+  }
+};
+
 // Ray j of ray queue `cur`, its closest hit known: on_hit or on_miss; the light sample's shadow query (if any)
 // to the shadow queue, the next ray (if the path goes on) to ray queue cur ^ 1. Inlined whole into the shading
 // kernel, on_miss (PN_FN) and on_hit (one call site) with it: as calls, the path state lived in local memory
@@ -465,11 +513,12 @@ PN_FN void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
   const RayQueue& in = w.ray[cur];
   const uint32_t slot = in.slot[j];
   const bool prev = path_reads_prev(s);
-  const bool lobes = path_reads_prev_lobes(s);
+  const bool lobes = path_reads_prev_lobes<kFeatures>(s);
   PathState st = load_path(w, slot, in.rays + j, prev, lobes);
   const bool ordered = w.shadow_order.cell_count && st.depth >= kShadowOrderDepth;
   const HitRecord rec = w.hits[j];
   ShadowQuery q;
+  uint32_t extra = 0;  // slc's queries, in the queue already
   if (rec.instance == kTraceMiss) {
     on_miss<kFeatures>(st, scene, s);
   } else {
@@ -477,7 +526,10 @@ PN_FN void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
     const bool restir = w.restir.pixels && st.depth == 0;
     RestirPrimaryOut out;
     if (restir) out = restir_primary_out(w, item_pixel(w, slot));
-    q = on_hit<kFeatures>(st, scene, s, rec, restir ? &out : nullptr);
+    ShadowQueueSink more{&w, slot, ordered};  // slc's queries
+    q = on_hit<kFeatures>(st, scene, s, rec, restir ? &out : nullptr, static_cast<const NoShadowTracer*>(nullptr),
+                          &more);
+    extra = more.pushed;
   }
   const RayQueue& out = w.ray[cur ^ 1];
   const bool query = q.kind != ShadowKind::None, next = st.active != 0;
@@ -496,7 +548,7 @@ PN_FN void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
     out.slot[kn] = slot;
     if (w.ray_order.cell_count) queue_order_count(w.ray_order, kn, ray_order_cell(w.ray_order, st.ray));
   }
-  const uint32_t rays = uint32_t(query) + uint32_t(next);
+  const uint32_t rays = uint32_t(query) + uint32_t(next) + extra;
   store_state(w, slot, st, prev, lobes);
   add_radiance(w, slot, st.L);
   if (rays) w.pool.rays[slot] += rays;

@@ -133,7 +133,10 @@ __global__ void __launch_bounds__(kBlock) orders_place_kernel(int next, bool ray
 // configurations (the light BVH, restir) take the kernel compiled for any (kAnyStrategy), and so does ltc: its code
 // (two polygon form factors, two samplers and their pdfs) in six kernels of its own, all inlined, took this file's
 // compilation from 36 s to 174 s on a two-core machine, on CI's critical path; with ltc's mixture and sg-bvh's
-// importance called rather than inlined (PN_FN_CALLED), 71 s. 24 kernels.
+// importance called rather than inlined (PN_FN_CALLED), 71 s. Those calls then cost every other kernel: their
+// stack and the registers saved around them (H200, 1080p, MIS power: many-spheres 3.31 -> 4.81 ms a sample with
+// power selection, 4.04 -> 5.12 with bvh; cornell-sphere with bvh 2.14 -> 3.24). So only the kernel for ltc and
+// sg-bvh (kLobes) is compiled with kFeatureExtraLightSampling (core/features.h), the others without. 27 kernels.
 constexpr uint32_t kAnyStrategy = ~0u;
 enum ShadeMis : uint32_t { kShadeMisNone, kShadeMisWeighted, kShadeMisAny };
 
@@ -150,25 +153,31 @@ __device__ __forceinline__ IntegratorSettings shade_settings(IntegratorSettings 
   return s;
 }
 
-template <uint32_t kLevel, uint32_t kStrategy, uint32_t kMis>
+template <uint32_t kLevel, uint32_t kStrategy, uint32_t kMis, bool kLobes = false>
 __global__ void __launch_bounds__(kBlock, 2) shade_kernel(int cur) {
+  constexpr uint32_t kFeatures = kLobes ? gpu::kFeatureLevels[kLevel] : gpu::kFeatureLevels[kLevel] & ~kFeatureExtraLightSampling;
   const WaveParams& p = WP();
   const IntegratorSettings s = shade_settings<kStrategy, kMis>(p.integrator);
   const uint32_t n = *p.view.ray[cur].count;
-  for (uint32_t j = first_index(); j < n; j += stride())
-    shade<gpu::kFeatureLevels[kLevel]>(j, p.view, cur, p.scene, s);
+  for (uint32_t j = first_index(); j < n; j += stride()) shade<kFeatures>(j, p.view, cur, p.scene, s);
 }
 
-// Which shading kernel a configuration takes: its strategy and MIS class where lights are chosen simply, else any.
+// Which shading kernel a configuration takes: its strategy and MIS class where lights are chosen simply, else any,
+// with the lobes' code where light sampling weighs by them (ltc, sg-bvh).
 ShadeKernelKey shade_kernel_key(const IntegratorSettings& s) {
+  if (needs_extra_light_sampling(s)) return {kAnyStrategy, kShadeMisAny, true};
   const bool simple = s.light_selection == LightSelection::Uniform || s.light_selection == LightSelection::Power;
-  if (!simple || s.strategy == Strategy::Ltc) return {kAnyStrategy, kShadeMisAny};
+  if (!simple) return {kAnyStrategy, kShadeMisAny};
   if (!strategy_uses_nee(s.strategy)) return {uint32_t(s.strategy), kShadeMisAny};
   return {uint32_t(s.strategy), s.mis == Mis::None ? kShadeMisNone : kShadeMisWeighted};
 }
 
 template <uint32_t kLevel>
 void launch_shade(const ShadeKernelKey& k, unsigned grid, cudaStream_t stream, int cur) {
+  if (k.lobes) {
+    shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, true><<<grid, kBlock, 0, stream>>>(cur);
+    return;
+  }
   if (k.strategy == kAnyStrategy) {
     shade_kernel<kLevel, kAnyStrategy, kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);
     return;
@@ -177,7 +186,7 @@ void launch_shade(const ShadeKernelKey& k, unsigned grid, cudaStream_t stream, i
 #define PN_X(e, name, impl, nee, desc)                                                                  \
   case Strategy::e:                                                                                     \
     if constexpr (Strategy::e == Strategy::Ltc) {                                                       \
-      shade_kernel<kLevel, kAnyStrategy, kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);               \
+      shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, true><<<grid, kBlock, 0, stream>>>(cur);         \
     } else if constexpr (!(nee)) {                                                                      \
       shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);      \
     } else if (k.mis == kShadeMisNone) {                                                                \
@@ -642,21 +651,23 @@ bool WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, ui
   WaveParams p;
   p.view = view_;
   p.view.restir = restir;
+  p.view.shared_slots = light_samples_per_vertex(frame.integrator) > 1 ? 1u : 0u;
+  const uint32_t paths = wave_paths(capacity_, frame.integrator);
   p.scene = device_scene;
   p.camera = frame.camera;
   p.integrator = frame.integrator;
   p.sum = static_cast<float4*>(sum);
   p.sum_sq = static_cast<float4*>(sum_sq);
   // One wave holding every sample of every pixel: the accumulation adds them to the film.
-  const bool into_film = film_direct_ && film && film->sum && items <= capacity_;
+  const bool into_film = film_direct_ && film && film->sum && items <= paths;
   if (into_film) p.film = *film;
   // Pageable copies: staged before they return, ordered on the stream before the graph's kernels read them.
   check(cudaMemcpyToSymbolAsync(g_params, &p, sizeof p, 0, cudaMemcpyHostToDevice, stream), "the parameters");
   check(cudaMemcpyAsync(view_device_, &p.view, sizeof p.view, cudaMemcpyHostToDevice, stream), "the pool's view");
-  for (uint64_t k0 = 0; k0 < items; k0 += capacity_) {
+  for (uint64_t k0 = 0; k0 < items; k0 += paths) {
     WaveSpec wave;
     wave.first_item = k0;
-    wave.count = uint32_t(items - k0 < capacity_ ? items - k0 : capacity_);
+    wave.count = uint32_t(items - k0 < paths ? items - k0 : paths);
     wave.first_sample = first_sample;
     wave.pixels = pixels;
     wave.seed = frame.seed;

@@ -88,10 +88,13 @@ std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, c
                                                            const GpuTuning& tuning);
 
 // Which shading kernel a wave launches (wavefront_gpu.cu: one compiled per strategy and MIS class where lights are
-// chosen simply, one for any configuration).
+// chosen simply, one for any configuration, and one for any with light sampling that weighs by the BSDF's lobes).
 struct ShadeKernelKey {
   uint32_t strategy = 0, mis = 0;
-  bool operator==(const ShadeKernelKey& o) const { return strategy == o.strategy && mis == o.mis; }
+  bool lobes = false;  // kFeatureExtraLightSampling (core/features.h): ltc, sg-bvh
+  bool operator==(const ShadeKernelKey& o) const {
+    return strategy == o.strategy && mis == o.mis && lobes == o.lobes;
+  }
 };
 
 // A wavefront of tuning.wavefront_paths paths on the current CUDA device, run as `tuning` says (its wavefront_*,
