@@ -429,7 +429,7 @@ class CpuBackend final : public Backend {
   struct HostWavefront {
     std::vector<Vec3> beta, L, contribution;
     std::vector<Rng> rng;
-    std::vector<PrevVertex> prev;
+    std::vector<PrevWords> prev, prev_lobes;
     std::vector<int32_t> depth;
     std::vector<uint32_t> rays, slots[3], bits;
     std::vector<TraceRay> queue_rays[3];
@@ -439,14 +439,14 @@ class CpuBackend final : public Backend {
     WavefrontView w;
 
     explicit HostWavefront(uint32_t capacity)
-        : beta(capacity), L(capacity), contribution(capacity), rng(capacity), prev(capacity), depth(capacity),
-          rays(capacity), bits(trace_bit_words(capacity)), hits(capacity) {
+        : beta(capacity), L(capacity), contribution(capacity), rng(capacity), prev(capacity), prev_lobes(capacity),
+          depth(capacity), rays(capacity), bits(trace_bit_words(capacity)), hits(capacity) {
       for (int q = 0; q < 3; ++q) {
         slots[q].resize(capacity);
         queue_rays[q].resize(capacity);
       }
       w.wave = &wave;
-      w.pool = PathPool{beta.data(), L.data(), rng.data(), prev.data(), depth.data(), rays.data()};
+      w.pool = PathPool{beta.data(), L.data(), rng.data(), prev.data(), prev_lobes.data(), depth.data(), rays.data()};
       for (int q = 0; q < 2; ++q) w.ray[q] = RayQueue{queue_rays[q].data(), slots[q].data(), &counts[q]};
       w.shadow = ShadowQueue{queue_rays[2].data(), slots[2].data(), contribution.data(), &counts[2]};
       w.hits = hits.data();

@@ -392,7 +392,8 @@ WavefrontView carve(char* base, uint32_t capacity, uint64_t* bytes) {
   w.pool.beta = c.take<Vec3>(capacity);
   w.pool.L = c.take<Vec3>(capacity);
   w.pool.rng = c.take<Rng>(capacity);
-  w.pool.prev = c.take<PrevVertex>(capacity);
+  w.pool.prev = c.take<PrevWords>(capacity);
+  w.pool.prev_lobes = c.take<PrevWords>(capacity);
   w.pool.depth = c.take<int32_t>(capacity);
   w.pool.rays = c.take<uint32_t>(capacity);
   uint32_t* counts = c.take<uint32_t>(3);
