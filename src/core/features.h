@@ -17,14 +17,17 @@ enum SceneFeature : uint32_t {
   kFeatureTextures = 1u << 1,     // texture lookups: material textures, normal maps, emission textures
   kFeatureSpecular = 1u << 2,     // a GGX lobe: a material with metallic > 0 or specular > 0
   kFeatureEnvironment = 1u << 3,  // an environment map
-  // Not the scene's but the configuration's: the light sampling other configurations should not pay for, the
-  // ltc strategy, sg-bvh selection and stochastic lightcuts (needs_extra_light_sampling, core/integrator.h).
-  // Without it ltc samples as projected-solid-angle, sg-bvh and slc select as bvh: a kernel compiled without it
-  // must never run them. The wavefront's shading kernels leave it out where the configuration has none of them:
-  // their functions' calls and stack had cost the others up to 45% a sample (wavefront_gpu.cu).
-  kFeatureExtraLightSampling = 1u << 4,
+  // Not the scene's but the configuration's: the light sampling other configurations should not pay for, a bit
+  // each (extra_light_sampling, core/integrator.h): the ltc strategy, sg-bvh selection, stochastic lightcuts.
+  // Without its bit ltc samples as projected-solid-angle, sg-bvh and slc select as bvh: a kernel compiled
+  // without it must never run them. The wavefront compiles a shading kernel for each (wavefront_gpu.cu): their
+  // functions' calls and stack had cost every other configuration up to 45% a sample, and each other up to 74%.
+  kFeatureLtc = 1u << 4,
+  kFeatureSgBvh = 1u << 5,
+  kFeatureSlc = 1u << 6,
 };
 constexpr uint32_t kSceneFeatures = kFeatureShading | kFeatureTextures | kFeatureSpecular | kFeatureEnvironment;
-constexpr uint32_t kAllFeatures = kSceneFeatures | kFeatureExtraLightSampling;
+constexpr uint32_t kExtraLightSampling = kFeatureLtc | kFeatureSgBvh | kFeatureSlc;
+constexpr uint32_t kAllFeatures = kSceneFeatures | kExtraLightSampling;
 
 }  // namespace pn

@@ -87,11 +87,11 @@ PN_FN LightSelection candidate_selection(const IntegratorSettings& s) {
 }
 
 // Whether light sampling weighs by the BSDF's lobes: the `ltc` strategy and `sg-bvh` selection, in code compiled
-// with kFeatureExtraLightSampling (core/features.h).
+// with their bits (kFeatureLtc, kFeatureSgBvh: core/features.h).
 template <uint32_t kFeatures = kAllFeatures>
 PN_FN bool light_sampling_sees_lobes(const IntegratorSettings& s) {
-  return (kFeatures & kFeatureExtraLightSampling) &&
-         (s.strategy == Strategy::Ltc || candidate_selection(s) == LightSelection::SgBvh);
+  return ((kFeatures & kFeatureLtc) && s.strategy == Strategy::Ltc) ||
+         ((kFeatures & kFeatureSgBvh) && candidate_selection(s) == LightSelection::SgBvh);
 }
 
 // What the light samplers see at a shading point: the point and its shading normal, and where they weigh by the
@@ -109,10 +109,12 @@ PN_FN LightSampleContext light_sample_context(const IntegratorSettings& s, Vec3 
   return c;
 }
 
-// Whether a configuration runs light sampling that only code compiled with kFeatureExtraLightSampling holds
-// (core/features.h): ltc, sg-bvh and slc.
-PN_FN bool needs_extra_light_sampling(const IntegratorSettings& s) {
-  return light_sampling_sees_lobes(s) || s.light_selection == LightSelection::Slc;
+// The feature bits of the light sampling a configuration runs that only code compiled with them holds
+// (core/features.h): ltc, sg-bvh (also as restir's source) and slc.
+PN_FN uint32_t extra_light_sampling(const IntegratorSettings& s) {
+  return (s.strategy == Strategy::Ltc ? uint32_t(kFeatureLtc) : 0u) |
+         (candidate_selection(s) == LightSelection::SgBvh ? uint32_t(kFeatureSgBvh) : 0u) |
+         (s.light_selection == LightSelection::Slc ? uint32_t(kFeatureSlc) : 0u);
 }
 
 // Light samples a vertex makes: one, or with slc one per node of its cut and one of the environment.
@@ -241,11 +243,11 @@ PN_FN ShadowQuery direct_shadow_query(const IntegratorSettings& s, const Bsdf& b
 // slc's light samples at a vertex (stochastic lightcuts, core/light_bvh.h): one in each node of the cut at p, then
 // one of the environment, each a shadow query with the path's throughput beta passed to emit(query). Their sum
 // estimates the direct light: a light's probability is its node's sample's (selection_pmf), and the MIS weight of
-// each is the one-sample weight with that probability. Code with kFeatureExtraLightSampling only.
+// each is the one-sample weight with that probability. Code with kFeatureSlc only.
 template <uint32_t kFeatures, class Emit>
 PN_FN void light_cut_queries(const SceneView& scene, const IntegratorSettings& s, const Bsdf& bsdf,
                              const SurfaceHit& hit, Vec3 wo, Vec3 beta, Rng& rng, Emit&& emit) {
-  if constexpr ((kFeatures & kFeatureExtraLightSampling) != 0) {
+  if constexpr ((kFeatures & kFeatureSlc) != 0) {
     constexpr bool kSpecular = (kFeatures & kFeatureSpecular) != 0;
     const LightSampleContext ctx = light_sample_context<kFeatures>(s, hit.p, bsdf, wo);
     const LightBvhQuery q = light_bvh_query<false>(ctx);
@@ -551,7 +553,7 @@ PN_FN ShadowQuery on_hit(PathState& st, const SceneView& scene, const Integrator
   if (is_black(bsdf.diffuse) && !bsdf.has_specular) return q;
 
   // Next-event estimation: a light sample, its shadow ray left to the driver; slc's, one per node of its cut.
-  if ((kFeatures & kFeatureExtraLightSampling) && s.light_selection == LightSelection::Slc) {
+  if ((kFeatures & kFeatureSlc) && s.light_selection == LightSelection::Slc) {
     if (nee)
       light_cut_queries<kFeatures>(scene, s, bsdf, hit, wo, st.beta, rng, [&](const ShadowQuery& sq) {
         if (now) on_shadow_result(st, sq, now->occluded(sq.ray, sq.tmax));

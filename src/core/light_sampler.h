@@ -95,10 +95,10 @@ PN_FN float light_pdf_as(const SceneView& scene, const Light& l, const LightSamp
   return 0.f;
 }
 
-// The sampler of a strategy in code compiled with kFeatures: ltc's only with kFeatureExtraLightSampling (else
+// The sampler of a strategy in code compiled with kFeatures: ltc's only with kFeatureLtc (else
 // projected-solid-angle's, which ltc is where the BSDF has no GGX lobe: core/features.h).
 template <class S, uint32_t kFeatures>
-using StrategySampler = std::conditional_t<std::is_same_v<S, LtcSampling> && !(kFeatures & kFeatureExtraLightSampling),
+using StrategySampler = std::conditional_t<std::is_same_v<S, LtcSampling> && !(kFeatures & kFeatureLtc),
                                            ProjectedSolidAngleSampling, S>;
 
 // The run-time strategy: one `switch` (the GPU compiles one program per

@@ -117,11 +117,11 @@ struct SelectedLight {
   float pmf = 0.f;  // 0: nothing selected (no lights)
 };
 
-// sg-bvh's lobes only where kFeatures has kFeatureExtraLightSampling (else it selects as bvh: core/features.h).
+// sg-bvh's lobes only where kFeatures has kFeatureSgBvh (else it selects as bvh: core/features.h).
 template <uint32_t kFeatures = kAllFeatures>
 PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightSelection method,
                                  const LightSampleContext& ctx, float u) {
-  constexpr bool kExtra = (kFeatures & kFeatureExtraLightSampling) != 0;
+  constexpr bool kSg = (kFeatures & kFeatureSgBvh) != 0;
   SelectedLight s;
   if (n == 0) return s;
   switch (method) {
@@ -136,7 +136,7 @@ PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightS
           return s;
         }
         const float ub = pn_min((u - p_inf) / (1.f - p_inf), kOneMinusEpsilon);
-        const LightBvhPick pick = kExtra && method == LightSelection::SgBvh ? light_bvh_select<kExtra>(v.bvh, ctx, ub)
+        const LightBvhPick pick = kSg && method == LightSelection::SgBvh ? light_bvh_select<kSg>(v.bvh, ctx, ub)
                                                                             : light_bvh_select<false>(v.bvh, ctx, ub);
         s.index = pick.light;
         s.pmf = pick.pmf * (1.f - p_inf);
@@ -162,15 +162,15 @@ PN_FN SelectedLight select_light(const LightSelectionView& v, uint32_t n, LightS
 
 // P(light i | x), as select_light() chooses.
 // slc: the probability of i's sample in a cut of at most `cut_nodes` nodes (the environment's: 1), a light's in
-// the one sample of its part of the lights (code with kFeatureExtraLightSampling; else as bvh).
+// the one sample of its part of the lights (code with kFeatureSlc; else as bvh).
 template <uint32_t kFeatures = kAllFeatures>
 PN_FN float selection_pmf(const LightSelectionView& v, uint32_t n, LightSelection method, const LightSampleContext& ctx,
                           uint32_t i, uint32_t cut_nodes = 1) {
-  constexpr bool kExtra = (kFeatures & kFeatureExtraLightSampling) != 0;
+  constexpr bool kSg = (kFeatures & kFeatureSgBvh) != 0;
   if (i >= n) return 0.f;
   switch (method) {
     case LightSelection::Slc:
-      if constexpr (kExtra) {
+      if constexpr ((kFeatures & kFeatureSlc) != 0) {
         if (int32_t(i) == v.infinite_light) return 1.f;
         const LightBvhQuery q = light_bvh_query<false>(ctx);
         return light_cut_pmf(v.bvh, q, light_bvh_cut(v.bvh, q, cut_nodes), i);
@@ -181,7 +181,7 @@ PN_FN float selection_pmf(const LightSelectionView& v, uint32_t n, LightSelectio
       if (v.bvh.nodes || v.infinite_light >= 0) {
         const float p_inf = v.infinite_light >= 0 ? v.infinite_probability : 0.f;
         if (int32_t(i) == v.infinite_light) return p_inf;
-        const float pmf = kExtra && method == LightSelection::SgBvh ? light_bvh_pmf<kExtra>(v.bvh, ctx, i)
+        const float pmf = kSg && method == LightSelection::SgBvh ? light_bvh_pmf<kSg>(v.bvh, ctx, i)
                                                                     : light_bvh_pmf<false>(v.bvh, ctx, i);
         return pmf * (1.f - p_inf);
       }

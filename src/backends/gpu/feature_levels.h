@@ -15,10 +15,10 @@ namespace gpu {
 // GGX, texture and environment code in its megakernel.
 constexpr uint32_t kNumFeatureLevels = 3;
 enum : uint32_t { kFeatureLevel_basic = 0, kFeatureLevel_textured = 1, kFeatureLevel_full = 2 };
-// Every level holds the code of light sampling by the BSDF's lobes (kFeatureExtraLightSampling): the megakernel runs ltc and
-// sg-bvh at any level; the wavefront's shading kernels take it out where the configuration has neither.
-constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {kFeatureExtraLightSampling,
-                                                        kFeatureShading | kFeatureTextures | kFeatureExtraLightSampling,
+// Every level holds the code of ltc, sg-bvh and slc (kExtraLightSampling): the megakernel runs them at any level;
+// the wavefront's shading kernels keep only what the configuration runs (wavefront_gpu.cu).
+constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {kExtraLightSampling,
+                                                        kFeatureShading | kFeatureTextures | kExtraLightSampling,
                                                         kAllFeatures};
 constexpr const char* kFeatureLevelNames[kNumFeatureLevels] = {"basic", "textured", "full"};
 

@@ -8,6 +8,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include <cuda_runtime.h>
 
@@ -135,8 +136,12 @@ __global__ void __launch_bounds__(kBlock) orders_place_kernel(int next, bool ray
 // compilation from 36 s to 174 s on a two-core machine, on CI's critical path; with ltc's mixture and sg-bvh's
 // importance called rather than inlined (PN_FN_CALLED), 71 s. Those calls then cost every other kernel: their
 // stack and the registers saved around them (H200, 1080p, MIS power: many-spheres 3.31 -> 4.81 ms a sample with
-// power selection, 4.04 -> 5.12 with bvh; cornell-sphere with bvh 2.14 -> 3.24). So only the kernel for ltc and
-// sg-bvh (kLobes) is compiled with kFeatureExtraLightSampling (core/features.h), the others without. 27 kernels.
+// power selection, 4.04 -> 5.12 with bvh; cornell-sphere with bvh 2.14 -> 3.24). So the light sampling of ltc,
+// sg-bvh and slc (core/features.h) is compiled only into the kernels of the configurations that run it (kExtra):
+// ltc's kernels per MIS class, as the other strategies', and a kernel for any configuration with sg-bvh, one with
+// slc and one with all three. One kernel holding the three had cost slc with a cut of one node, bvh's estimator
+// exactly, 74% more than bvh's kernel (many-spheres-glossy, 10,000 lights: 7.81 against 4.50 ms a sample). 39
+// kernels.
 constexpr uint32_t kAnyStrategy = ~0u;
 enum ShadeMis : uint32_t { kShadeMisNone, kShadeMisWeighted, kShadeMisAny };
 
@@ -153,46 +158,58 @@ __device__ __forceinline__ IntegratorSettings shade_settings(IntegratorSettings 
   return s;
 }
 
-template <uint32_t kLevel, uint32_t kStrategy, uint32_t kMis, bool kLobes = false>
+template <uint32_t kLevel, uint32_t kStrategy, uint32_t kMis, uint32_t kExtra = 0>
 __global__ void __launch_bounds__(kBlock, 2) shade_kernel(int cur) {
-  constexpr uint32_t kFeatures = kLobes ? gpu::kFeatureLevels[kLevel] : gpu::kFeatureLevels[kLevel] & ~kFeatureExtraLightSampling;
+  constexpr uint32_t kFeatures = (gpu::kFeatureLevels[kLevel] & ~kExtraLightSampling) | kExtra;
   const WaveParams& p = WP();
   const IntegratorSettings s = shade_settings<kStrategy, kMis>(p.integrator);
   const uint32_t n = *p.view.ray[cur].count;
   for (uint32_t j = first_index(); j < n; j += stride()) shade<kFeatures>(j, p.view, cur, p.scene, s);
 }
 
-// Which shading kernel a configuration takes: its strategy and MIS class where lights are chosen simply, else any,
-// with the lobes' code where light sampling weighs by them (ltc, sg-bvh).
+// Which shading kernel a configuration takes: its strategy and MIS class where lights are chosen simply, else any;
+// with the code of the extra light sampling it runs (extra_light_sampling: ltc, sg-bvh, slc).
 ShadeKernelKey shade_kernel_key(const IntegratorSettings& s) {
-  if (needs_extra_light_sampling(s)) return {kAnyStrategy, kShadeMisAny, true};
+  const uint32_t extra = extra_light_sampling(s);
   const bool simple = s.light_selection == LightSelection::Uniform || s.light_selection == LightSelection::Power;
-  if (!simple) return {kAnyStrategy, kShadeMisAny};
+  if (!simple || (extra & ~uint32_t(kFeatureLtc))) return {kAnyStrategy, kShadeMisAny, extra};
   if (!strategy_uses_nee(s.strategy)) return {uint32_t(s.strategy), kShadeMisAny};
-  return {uint32_t(s.strategy), s.mis == Mis::None ? kShadeMisNone : kShadeMisWeighted};
+  return {uint32_t(s.strategy), s.mis == Mis::None ? kShadeMisNone : kShadeMisWeighted, extra};
 }
+
+// The extra light sampling a strategy's own kernels hold: ltc's for ltc.
+template <Strategy kS>
+struct StrategyExtra : std::integral_constant<uint32_t, kS == Strategy::Ltc ? uint32_t(kFeatureLtc) : 0u> {};
 
 template <uint32_t kLevel>
 void launch_shade(const ShadeKernelKey& k, unsigned grid, cudaStream_t stream, int cur) {
-  if (k.lobes) {
-    shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, true><<<grid, kBlock, 0, stream>>>(cur);
-    return;
-  }
   if (k.strategy == kAnyStrategy) {
-    shade_kernel<kLevel, kAnyStrategy, kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);
+    switch (k.extra) {
+      case 0:
+        shade_kernel<kLevel, kAnyStrategy, kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);
+        break;
+      case kFeatureSgBvh:
+        shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, kFeatureSgBvh><<<grid, kBlock, 0, stream>>>(cur);
+        break;
+      case kFeatureSlc:
+        shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, kFeatureSlc><<<grid, kBlock, 0, stream>>>(cur);
+        break;
+      default:  // two or three of them (ltc with sg-bvh or slc, ...)
+        shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, kExtraLightSampling><<<grid, kBlock, 0, stream>>>(cur);
+    }
     return;
   }
   switch (Strategy(k.strategy)) {
 #define PN_X(e, name, impl, nee, desc)                                                                  \
   case Strategy::e:                                                                                     \
-    if constexpr (Strategy::e == Strategy::Ltc) {                                                       \
-      shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, true><<<grid, kBlock, 0, stream>>>(cur);         \
-    } else if constexpr (!(nee)) {                                                                      \
+    if constexpr (!(nee)) {                                                                             \
       shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);      \
     } else if (k.mis == kShadeMisNone) {                                                                \
-      shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisNone><<<grid, kBlock, 0, stream>>>(cur);     \
+      shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisNone, StrategyExtra<Strategy::e>::value>     \
+          <<<grid, kBlock, 0, stream>>>(cur);                                                           \
     } else {                                                                                            \
-      shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisWeighted><<<grid, kBlock, 0, stream>>>(cur); \
+      shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisWeighted, StrategyExtra<Strategy::e>::value> \
+          <<<grid, kBlock, 0, stream>>>(cur);                                                           \
     }                                                                                                   \
     break;
     PN_STRATEGIES(PN_X)

@@ -91,9 +91,9 @@ std::unique_ptr<WavefrontTraceStage> make_cuda_trace_stage(const Scene& scene, c
 // chosen simply, one for any configuration, and one for any with light sampling that weighs by the BSDF's lobes).
 struct ShadeKernelKey {
   uint32_t strategy = 0, mis = 0;
-  bool lobes = false;  // kFeatureExtraLightSampling (core/features.h): ltc, sg-bvh
+  uint32_t extra = 0;  // the bits of kExtraLightSampling the configuration needs (core/features.h)
   bool operator==(const ShadeKernelKey& o) const {
-    return strategy == o.strategy && mis == o.mis && lobes == o.lobes;
+    return strategy == o.strategy && mis == o.mis && extra == o.extra;
   }
 };
 
