@@ -212,6 +212,25 @@ def test_light_selection_and_the_lobe_aware_techniques():
     assert e.value.field == "render.light_selection" and "sg-bvh" in str(e.value)
 
 
+def test_stochastic_lightcuts():
+    # slc_cut is render.slc_cut: a cut of one node renders the light BVH's very image; a larger one an image with the
+    # same mean; a cut out of 1..64 is an error naming the field.
+    one = penumbra.render("many-spheres", spp=2, light_selection="slc", slc_cut=1, backend="cpu", **SMALL)
+    bvh = penumbra.render("many-spheres", spp=2, light_selection="bvh", backend="cpu", **SMALL)
+    assert one.stats["slc_cut"] == 1 and one.stats["light_selection"] == "slc"
+    assert np.array_equal(one.rgb, bvh.rgb)
+    a = penumbra.render("many-spheres", spp=32, light_selection="slc", slc_cut=16, backend="cpu", seed=1, **SMALL)
+    b = penumbra.render("many-spheres", spp=32, light_selection="bvh", backend="cpu", seed=2, **SMALL)
+    r = penumbra.compare(a, b)
+    assert abs(r["image_z"]) < 4, r["summary"]
+    r = penumbra.Renderer("many-spheres", backend="cpu", light_selection="slc", **SMALL)
+    r.set(slc_cut=4)
+    assert r.settings["slc_cut"] == 4
+    with pytest.raises(penumbra.SceneError) as e:
+        penumbra.render("many-spheres", spp=1, light_selection="slc", slc_cut=65, backend="cpu", **SMALL)
+    assert e.value.field == "render.slc_cut"
+
+
 def test_build_info():
     info = penumbra.build_info()
     assert isinstance(info["optix"], bool) and isinstance(info["gpu_available"], bool)
