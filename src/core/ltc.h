@@ -226,16 +226,23 @@ struct LtcSampling {
     const LtcLobe lobe = make_ltc_lobe(ctx);
     const float q = ltc_probability(l, ctx, lobe);
     if (!(q > 0.f)) return sample_spherical_polygon<true>(l, ctx, u);
+    // The mixture's density: the sampled technique's own density is the sample's; only the other's is evaluated.
     LightSample s;
+    float p_ltc, p_polygon;
     if (u.x < q) {
       u.x = pn_min(u.x / q, kOneMinusEpsilon);
       s = ltc_technique_sample(l, ctx, lobe, u);
+      if (!(s.pdf > 0.f)) return LightSample();
+      p_ltc = s.pdf;
+      p_polygon = pdf_spherical_polygon<true>(l, ctx, s.wi);
     } else {
       u.x = pn_min((u.x - q) / (1.f - q), kOneMinusEpsilon);
       s = sample_spherical_polygon<true>(l, ctx, u);
+      if (!(s.pdf > 0.f)) return LightSample();
+      p_polygon = s.pdf;
+      p_ltc = ltc_technique_pdf(l, ctx, lobe, s.wi);
     }
-    if (!(s.pdf > 0.f)) return LightSample();
-    s.pdf = mixture_pdf(l, ctx, lobe, q, s.wi);
+    s.pdf = q * p_ltc + (1.f - q) * p_polygon;
     return s.pdf > 0.f ? s : LightSample();
   }
   PN_FN_CALLED static float pdf_polygon(const Light& l, const LightSampleContext& ctx, Vec3 wi) {
