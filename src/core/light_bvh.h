@@ -316,6 +316,26 @@ PN_FN LightBvhPick light_bvh_select_below(const LightBvhView& v, const LightBvhQ
   return pick;
 }
 
+// One level of a light's trail below `node` (`index`: that node's): to the child the trail's bit names (`second`),
+// the pmf times that child's probability. False where neither child has importance at q (the pmf is then 0).
+template <bool kSg>
+PN_FN bool light_bvh_pmf_step(const LightBvhView& v, const LightBvhQuery& q, bool second, uint32_t* node,
+                              uint32_t* index, float* pmf) {
+  const LightBvhNode c0 = load_light_bvh_node(v.nodes, *node + 1), c1 = load_light_bvh_node(v.nodes, *index);
+  const float p0 = light_bvh_first_probability<kSg>(c0, c1, q);
+  if (p0 < 0.f) return false;
+  if (second) {
+    *pmf *= 1.f - p0;
+    *node = *index;
+    *index = c1.index;
+  } else {
+    *pmf *= p0;
+    *node = *node + 1;
+    *index = c0.index;
+  }
+  return true;
+}
+
 // The probability that light_bvh_select() picks `light` at ctx: the same
 // ratios, in the same floating-point operations, along the light's trail.
 template <bool kSg = false>
@@ -326,20 +346,8 @@ PN_FN float light_bvh_pmf(const LightBvhView& v, const LightSampleContext& ctx, 
   if (trail == 0) return 0.f;
   uint32_t node = 0, index = load_light_bvh_node(v.nodes, 0).index;
   float pmf = 1.f;
-  for (; trail > 1u; trail >>= 1) {
-    const LightBvhNode c0 = load_light_bvh_node(v.nodes, node + 1), c1 = load_light_bvh_node(v.nodes, index);
-    const float p0 = light_bvh_first_probability<kSg>(c0, c1, q);
-    if (p0 < 0.f) return 0.f;
-    if (trail & 1u) {
-      pmf *= 1.f - p0;
-      node = index;
-      index = c1.index;
-    } else {
-      pmf *= p0;
-      node = node + 1;
-      index = c0.index;
-    }
-  }
+  for (; trail > 1u; trail >>= 1)
+    if (!light_bvh_pmf_step<kSg>(v, q, (trail & 1u) != 0, &node, &index, &pmf)) return 0.f;
   if (node == 0 && !light_bvh_root_leaf_visible(v, q)) return 0.f;
   return pmf;
 }
@@ -440,18 +448,7 @@ PN_FN_CALLED float light_cut_pmf(const LightBvhView& v, const LightBvhQuery& q, 
       below = light_cut_holds(c, node);
       continue;
     }
-    const LightBvhNode c0 = load_light_bvh_node(v.nodes, node + 1), c1 = load_light_bvh_node(v.nodes, index);
-    const float p0 = light_bvh_first_probability<false>(c0, c1, q);
-    if (p0 < 0.f) return 0.f;
-    if (trail & 1u) {
-      pmf *= 1.f - p0;
-      node = index;
-      index = c1.index;
-    } else {
-      pmf *= p0;
-      node = node + 1;
-      index = c0.index;
-    }
+    if (!light_bvh_pmf_step<false>(v, q, (trail & 1u) != 0, &node, &index, &pmf)) return 0.f;
   }
   return below ? pmf : 0.f;
 }
