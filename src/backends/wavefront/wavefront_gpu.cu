@@ -139,9 +139,9 @@ __global__ void __launch_bounds__(kBlock) orders_place_kernel(int next, bool ray
 // power selection, 4.04 -> 5.12 with bvh; cornell-sphere with bvh 2.14 -> 3.24). So the light sampling of ltc,
 // sg-bvh and slc (core/features.h) is compiled only into the kernels of the configurations that run it (kExtra):
 // ltc's kernels per MIS class, as the other strategies', and a kernel for any configuration with sg-bvh, one with
-// slc and one with all three. One kernel holding the three had cost slc with a cut of one node, bvh's estimator
-// exactly, 74% more than bvh's kernel (many-spheres-glossy, 10,000 lights: 7.81 against 4.50 ms a sample). 39
-// kernels.
+// slc and one with all three, at the full feature level only (kExtraLevel). One kernel holding the three had cost
+// slc with a cut of one node, bvh's estimator exactly, 74% more than bvh's kernel (many-spheres-glossy, 10,000
+// lights: 7.81 against 4.50 ms a sample). 29 kernels.
 constexpr uint32_t kAnyStrategy = ~0u;
 enum ShadeMis : uint32_t { kShadeMisNone, kShadeMisWeighted, kShadeMisAny };
 
@@ -180,6 +180,12 @@ ShadeKernelKey shade_kernel_key(const IntegratorSettings& s) {
 // The extra light sampling a strategy's own kernels hold: ltc's for ltc.
 template <Strategy kS>
 struct StrategyExtra : std::integral_constant<uint32_t, kS == Strategy::Ltc ? uint32_t(kFeatureLtc) : 0u> {};
+// Kernels with extra light sampling are compiled at the full feature level alone, which covers every scene: each
+// such kernel is as large as all the others of its level, and at three levels they doubled this file's compile
+// time (to 457 s on CI's two cores, for two architectures). A Lambertian scene pays the full level's code there.
+constexpr uint32_t kExtraLevel = gpu::kFeatureLevel_full;
+template <Strategy kS, uint32_t kLevel>
+struct StrategyLevel : std::integral_constant<uint32_t, StrategyExtra<kS>::value ? kExtraLevel : kLevel> {};
 
 template <uint32_t kLevel>
 void launch_shade(const ShadeKernelKey& k, unsigned grid, cudaStream_t stream, int cur) {
@@ -189,13 +195,13 @@ void launch_shade(const ShadeKernelKey& k, unsigned grid, cudaStream_t stream, i
         shade_kernel<kLevel, kAnyStrategy, kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);
         break;
       case kFeatureSgBvh:
-        shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, kFeatureSgBvh><<<grid, kBlock, 0, stream>>>(cur);
+        shade_kernel<kExtraLevel, kAnyStrategy, kShadeMisAny, kFeatureSgBvh><<<grid, kBlock, 0, stream>>>(cur);
         break;
       case kFeatureSlc:
-        shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, kFeatureSlc><<<grid, kBlock, 0, stream>>>(cur);
+        shade_kernel<kExtraLevel, kAnyStrategy, kShadeMisAny, kFeatureSlc><<<grid, kBlock, 0, stream>>>(cur);
         break;
       default:  // two or three of them (ltc with sg-bvh or slc, ...)
-        shade_kernel<kLevel, kAnyStrategy, kShadeMisAny, kExtraLightSampling><<<grid, kBlock, 0, stream>>>(cur);
+        shade_kernel<kExtraLevel, kAnyStrategy, kShadeMisAny, kExtraLightSampling><<<grid, kBlock, 0, stream>>>(cur);
     }
     return;
   }
@@ -205,11 +211,11 @@ void launch_shade(const ShadeKernelKey& k, unsigned grid, cudaStream_t stream, i
     if constexpr (!(nee)) {                                                                             \
       shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisAny><<<grid, kBlock, 0, stream>>>(cur);      \
     } else if (k.mis == kShadeMisNone) {                                                                \
-      shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisNone, StrategyExtra<Strategy::e>::value>     \
-          <<<grid, kBlock, 0, stream>>>(cur);                                                           \
+      shade_kernel<StrategyLevel<Strategy::e, kLevel>::value, uint32_t(Strategy::e), kShadeMisNone,     \
+                   StrategyExtra<Strategy::e>::value><<<grid, kBlock, 0, stream>>>(cur);                \
     } else {                                                                                            \
-      shade_kernel<kLevel, uint32_t(Strategy::e), kShadeMisWeighted, StrategyExtra<Strategy::e>::value> \
-          <<<grid, kBlock, 0, stream>>>(cur);                                                           \
+      shade_kernel<StrategyLevel<Strategy::e, kLevel>::value, uint32_t(Strategy::e), kShadeMisWeighted, \
+                   StrategyExtra<Strategy::e>::value><<<grid, kBlock, 0, stream>>>(cur);                \
     }                                                                                                   \
     break;
     PN_STRATEGIES(PN_X)
