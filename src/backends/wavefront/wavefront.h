@@ -502,6 +502,16 @@ PN_FN void begin_bounce(const WavefrontView& w, int next) {
   *w.shadow.count = 0;
 }
 
+// Shadow query q of the path in `slot` at position k of the shadow queue (counted into its direction's cell where
+// the queue is traced in that order).
+PN_FN void store_shadow_query(const WavefrontView& w, uint32_t k, uint32_t slot, const ShadowQuery& q, bool ordered) {
+  if (ordered) queue_order_count(w.shadow_order, k, shadow_direction_cell(q.ray.d));
+  store_trace_ray(w.shadow.rays + k, q.ray, q.tmax);
+  const bool reservoir = q.kind == ShadowKind::Reservoir;
+  w.shadow.slot[k] = reservoir ? slot | kReservoirQuery : slot;
+  w.shadow.contribution[k] = reservoir ? Vec3(q.reservoir_W, 0.f, 0.f) : q.contribution;
+}
+
 // Where shade puts a vertex's queries beyond the one on_hit returns (slc's, on_hit's `more`): the shadow queue.
 struct ShadowQueueSink {
   const WavefrontView* w;
@@ -509,11 +519,7 @@ struct ShadowQueueSink {
   bool ordered;
   uint32_t pushed = 0;
   PN_FN void push(const ShadowQuery& q) {
-    const uint32_t k = queue_push(w->shadow.count);
-    if (ordered) queue_order_count(w->shadow_order, k, shadow_direction_cell(q.ray.d));
-    store_trace_ray(w->shadow.rays + k, q.ray, q.tmax);
-    w->shadow.slot[k] = slot;
-    w->shadow.contribution[k] = q.contribution;
+    store_shadow_query(*w, queue_push(w->shadow.count), slot, q, ordered);
     ++pushed;
   }
 };
@@ -550,13 +556,7 @@ PN_FN void shade(uint32_t j, const WavefrontView& w, int cur, const SceneView& s
   uint32_t kq = 0, kn = 0;
   if (query) kq = queue_push(w.shadow.count);  // the compiler aggregates these per warp (a pair of pushes
   if (next) kn = queue_push(out.count);        // aggregated by hand, both atomics in flight at once, was slower)
-  if (query) {
-    if (ordered) queue_order_count(w.shadow_order, kq, shadow_direction_cell(q.ray.d));
-    store_trace_ray(w.shadow.rays + kq, q.ray, q.tmax);
-    const bool reservoir = q.kind == ShadowKind::Reservoir;
-    w.shadow.slot[kq] = reservoir ? slot | kReservoirQuery : slot;
-    w.shadow.contribution[kq] = reservoir ? Vec3(q.reservoir_W, 0.f, 0.f) : q.contribution;
-  }
+  if (query) store_shadow_query(w, kq, slot, q, ordered);
   if (next) {
     store_trace_ray(out.rays + kn, st.ray, kInf);
     out.slot[kn] = slot;
