@@ -101,8 +101,8 @@ def main(prog=None):
                     help="run only this headline scene (repeatable): split a long study over several GPU calls, "
                          "then --report-only over the merged runs")
     ap.add_argument("--selection", action="append", choices=sorted(MANY_SELECTIONS),
-                    help="many-lights: run only this selection method (repeatable); the report needs them all, so "
-                         "merge the runs and use --report-only")
+                    help="many-lights: run only this selection method, in the headline and the sweep (repeatable); "
+                         "the report needs them all, so merge the runs and use --report-only")
     ap.add_argument("--check", action="store_true", help="assert slopes and the near-light win (CI smoke test)")
     ap.add_argument("--keep-runs", action="store_true", help="keep the crops (.npy) the figures are drawn from")
     ap.add_argument("--report-only", action="store_true",

@@ -279,6 +279,8 @@ def many_plan(args, cfg, out_dir):
                      for sel, extra in MANY_SELECTIONS.items() if not args.selection or sel in args.selection]
     if args.only != "headline" and (not args.scene or "many-spheres" in args.scene):
         for sel in MANY_SWEEP_SELECTIONS:
+            if args.selection and sel not in args.selection:
+                continue
             sweeps[sel] = [Run(f"count-{n}-{sel}", "many-spheres", cfg["sweep"],
                                (f"defaults.lights={n}",) + tuple(cfg.get("sets", ())) + tuple(MANY_SELECTIONS[sel]),
                                ("solid-angle",), ("power",), out_dir) for n in cfg["counts"]]

@@ -206,11 +206,14 @@ Setup prepare(const ConvergeOptions& a) {
   // for references only. (Not the chunk size: it changes the order of double
   // additions only.) References select lights by --reference-selection (power by
   // default) whatever the runs do: an unbiased method, and the same reference
-  // for every method compared; a selection other than power is in the key.
+  // for every method compared; a selection other than power is in the key, and so
+  // is slc's cut only where the reference itself selects by slc.
   json key_doc = s.doc;
-  if (key_doc.contains("render") && key_doc["render"].is_object())
+  if (key_doc.contains("render") && key_doc["render"].is_object()) {
     for (const char* k : {"spp", "strategy", "mis", "mis_compensation", "seed", "light_selection", "restir"})
       key_doc["render"].erase(k);
+    if (s.ref_selection != LightSelection::Slc) key_doc["render"].erase("slc_cut");
+  }
   std::ostringstream key;
   key << std::hex
       << fnv1a(key_doc.dump() + "|" + std::to_string(a.reference_spp) + "|" + technique_name(s.ref_technique) +

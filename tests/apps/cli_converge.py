@@ -5,7 +5,9 @@
     fit_rmse_nolight say whether it is extrapolated beyond the spp the line was fitted to ("extrapolated",
     "fit_spp"), and the text line of each technique says the same;
   - a --max-spp below --crop-spp (or a --crop-spp that is not one of the spp levels) writes no crops: one
-    warning line on stderr says so; with a --crop-spp among the levels, there is none and the crops are written.
+    warning line on stderr says so; with a --crop-spp among the levels, there is none and the crops are written;
+  - the ground truth's cache key leaves out what the reference does not render with: a run with another light
+    selection and slc cut finds the reference of the runs before it.
 
 Tiny runs on the CPU (16x16 pixels, a 64-spp ground truth). Python standard library only.
 """
@@ -108,6 +110,10 @@ def main():
             "warning: --crop-spp 3 is not one of the spp levels (1, 2, 4, ..., 8): no crops are written "
             "(crop_*.npy, image_*spp.png)"]:
         fail(f"--crop-spp 3: expected one warning:\n{err}")
+    # slc with a cut of 3: the reference still selects by power, so it is the one already cached.
+    summary, _ = converge(args, "slc", "--set", 'render.light_selection="slc"', "--set", "render.slc_cut=3")
+    if not summary["reference"]["cached"]:
+        fail("a run with render.slc_cut=3 rendered its power-selected reference again instead of the cached one")
     print("cli_converge: PASS")
 
 
