@@ -126,6 +126,7 @@ void check_denoise_backend(const std::string& what, const Backend& backend, cons
 }
 
 void release_denoisers() {
+  release_oidn_filters();
 #if PN_HAVE_OPTIX
   std::lock_guard<std::mutex> lock(denoisers_mutex);
   denoisers().clear();

@@ -64,7 +64,7 @@ struct DenoisedImage {
 DenoisedImage denoise_render(Backend& backend, const FrameSpec& frame, const std::vector<float>& mean,
                              const DenoiseOptions& options = {}, uint32_t guide_samples = kGuideSamples);
 
-// Destroys the denoisers kept so far (each GPU's is made again on next use):
+// Destroys the denoisers kept so far, and OIDN's kept filters (each made again on next use):
 // a program that denoises once calls it before it exits, so that its device
 // memory is freed before CUDA's own teardown (compute-sanitizer's leak check).
 void release_denoisers();

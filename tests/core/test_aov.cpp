@@ -4,11 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/aov.h"
 #include "render/backend.h"
 #include "backends/denoise.h"
 #include "backends/make_backend.h"
+#include "render/oidn.h"
 #include "render/film.h"
 #include "scene/scene.h"
 
@@ -257,6 +261,37 @@ TEST(Denoise, OidnOnTheCpuBackend) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("albedo guide"), std::string::npos) << e.what();
   }
+}
+
+// OIDN's filter is kept between calls (committing it loads the weights): a kept filter gives the image a new one
+// gives, bit for bit, and another image or size in between leaves nothing behind.
+TEST(Denoise, AKeptFilterDenoisesAsANewOne) {
+  const DenoiseOptions o = oidn_or_skip();
+  SKIP_WITHOUT_OIDN(o);
+  auto render = [](int w, int h, uint32_t seed) {
+    Scene s = load_scene("cornell-sphere", {"render.width=" + std::to_string(w), "render.height=" + std::to_string(h)});
+    std::string note;
+    auto cpu = make_backend("cpu", s, BackendOptions{1}, &note);
+    FrameSpec f = frame_spec(s);
+    f.seed = seed;
+    Film film(w, h);
+    cpu->render(f, film, 0, 2);
+    return std::make_pair(film.mean(), cpu->render_guides(f, kGuideSamples));
+  };
+  std::string note;
+  const Scene s = load_scene("cornell-sphere", {"render.width=40", "render.height=24"});
+  auto cpu = make_backend("cpu", s, BackendOptions{1}, &note);
+  const auto [a, guides] = render(40, 24, 1);
+  const auto [b, unused] = render(40, 24, 2);
+  const auto [small, small_guides] = render(24, 16, 3);
+  release_oidn_filters();
+  const std::vector<float> first = denoise_image(*cpu, a, guides, o);  // a new filter
+  EXPECT_EQ(denoise_image(*cpu, a, guides, o), first);                  // the kept one
+  const std::vector<float> other = denoise_image(*cpu, b, guides, o);
+  EXPECT_NE(other, first);
+  EXPECT_EQ(denoise_image(*cpu, small, small_guides, o).size(), small.size());  // another size: made again
+  EXPECT_EQ(denoise_image(*cpu, a, guides, o), first);
+  EXPECT_EQ(denoise_image(*cpu, b, guides, o), other);
 }
 
 }  // namespace

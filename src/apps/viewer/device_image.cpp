@@ -92,6 +92,12 @@ class DeviceImage final : public ProgressiveImage {
     check(cudaStreamSynchronize(stream_), "cudaStreamSynchronize");  // done before GL reads the buffer
   }
 
+  void write_mean_device(float* rgb, int x_begin, int x_end) const override {
+    const double inv = samples_ ? 1.0 / double(samples_) : 0.0;
+    check(launch_mean_columns(sum_.ptr, width_, height_, x_begin, x_end, inv, rgb, stream_), "the mean kernel");
+    check(cudaStreamSynchronize(stream_), "cudaStreamSynchronize");  // written before the denoiser reads it
+  }
+
   std::vector<float> mean() const override {
     std::vector<double> sum(sum_.count);
     if (!sum.empty())
@@ -116,6 +122,65 @@ class DeviceImage final : public ProgressiveImage {
 
 std::unique_ptr<ProgressiveImage> make_device_image(OptixBackend& backend) {
   return std::make_unique<DeviceImage>(backend);
+}
+
+struct DeviceDenoiser::Impl {
+  int cuda_device = 0;
+  int width = 0, height = 0;
+  cudaStream_t stream = nullptr;
+  DeviceArray<float> color, albedo, normal, output, thresholds;
+};
+
+DeviceDenoiser::DeviceDenoiser(int cuda_device) : impl_(std::make_unique<Impl>()) {
+  impl_->cuda_device = cuda_device;
+  check(cudaStreamCreateWithFlags(&impl_->stream, cudaStreamNonBlocking), "cudaStreamCreate");
+  impl_->thresholds.alloc(255);
+  check(cudaMemcpy(impl_->thresholds.ptr, srgb8_thresholds(), 255 * sizeof(float), cudaMemcpyHostToDevice),
+        "cudaMemcpy (the sRGB table)");
+}
+
+DeviceDenoiser::~DeviceDenoiser() {
+  if (impl_->stream) cudaStreamSynchronize(impl_->stream), cudaStreamDestroy(impl_->stream);
+}
+
+void DeviceDenoiser::set_guides(const GuideImages& guides) {
+  Impl& m = *impl_;
+  const size_t n = size_t(guides.width) * size_t(guides.height) * 3;
+  if (guides.width <= 0 || guides.height <= 0 || guides.albedo.size() != n || guides.normal.size() != n)
+    throw std::runtime_error("denoise: the guides are not images of " + std::to_string(guides.width) + " x " +
+                             std::to_string(guides.height) + " pixels");
+  m.width = guides.width;
+  m.height = guides.height;
+  for (DeviceArray<float>* a : {&m.color, &m.albedo, &m.normal, &m.output}) a->alloc(n);
+  check(cudaMemcpy(m.albedo.ptr, guides.albedo.data(), n * sizeof(float), cudaMemcpyHostToDevice), "cudaMemcpy");
+  check(cudaMemcpy(m.normal.ptr, guides.normal.data(), n * sizeof(float), cudaMemcpyHostToDevice), "cudaMemcpy");
+}
+
+float* DeviceDenoiser::color() { return impl_->color.ptr; }
+
+double DeviceDenoiser::denoise(Oidn& oidn, const OidnFilterOptions& options) {
+  const Impl& m = *impl_;
+  OidnDeviceImages images;
+  images.cuda_device = m.cuda_device;
+  images.width = m.width;
+  images.height = m.height;
+  images.color = m.color.ptr;
+  images.albedo = m.albedo.ptr;
+  images.normal = m.normal.ptr;
+  images.output = m.output.ptr;
+  double ms = 0;
+  oidn.denoise_device(images, options, &ms);
+  return ms;
+}
+
+void DeviceDenoiser::tone_map(const DisplayPixels& out, float exposure) const {
+  const Impl& m = *impl_;
+  if (!out.device) throw std::logic_error("the device denoiser asked to write host pixels");
+  if (out.width != m.width || out.height != m.height) throw std::logic_error("display size differs");
+  check(launch_tone_map_rgb(m.output.ptr, m.width, m.height, std::exp2(exposure), m.thresholds.ptr, out.data,
+                            out.row_bytes, m.stream),
+        "the tone-map kernel");
+  check(cudaStreamSynchronize(m.stream), "cudaStreamSynchronize");  // done before GL reads the buffer
 }
 
 CudaGlBuffer::CudaGlBuffer(unsigned gl_buffer) {

@@ -24,6 +24,30 @@ __global__ void tone_map_columns_kernel(const double* __restrict__ sum, int widt
   *reinterpret_cast<uchar4*>(out + size_t(y) * row_bytes + size_t(x) * 4) = make_uchar4(px[0], px[1], px[2], px[3]);
 }
 
+__global__ void mean_columns_kernel(const double* __restrict__ sum, int width, int height, int x_begin, int columns,
+                                    double inv, float* __restrict__ out) {
+  const int x = x_begin + int(blockIdx.x * blockDim.x + threadIdx.x), y = int(blockIdx.y * blockDim.y + threadIdx.y);
+  if (x >= x_begin + columns || y >= height) return;
+  const size_t i = (size_t(y) * width + x) * 3;
+  for (int c = 0; c < 3; ++c) {
+    const float v = float(sum[i + c] * inv);
+    out[i + c] = isfinite(v) ? v : 0.f;
+  }
+}
+
+__global__ void tone_map_rgb_kernel(const float* __restrict__ rgb, int width, int height, float gain,
+                                    const float* __restrict__ thresholds, unsigned char* __restrict__ out,
+                                    size_t row_bytes) {
+  __shared__ float t[255];
+  for (int i = threadIdx.y * blockDim.x + threadIdx.x; i < 255; i += blockDim.x * blockDim.y) t[i] = thresholds[i];
+  __syncthreads();
+  const int x = int(blockIdx.x * blockDim.x + threadIdx.x), y = int(blockIdx.y * blockDim.y + threadIdx.y);
+  if (x >= width || y >= height) return;
+  unsigned char px[4];
+  tone_map_rgb(rgb + (size_t(y) * width + x) * 3, gain, t, px);
+  *reinterpret_cast<uchar4*>(out + size_t(y) * row_bytes + size_t(x) * 4) = make_uchar4(px[0], px[1], px[2], px[3]);
+}
+
 }  // namespace
 
 cudaError_t launch_add_sums(double* acc, const double* add, size_t n, cudaStream_t stream) {
@@ -44,6 +68,26 @@ cudaError_t launch_tone_map_columns(const double* sum, int width, int height, in
   const dim3 grid(unsigned((x_end - x_begin + 31) / 32), unsigned((height + 7) / 8));
   tone_map_columns_kernel<<<grid, block, 0, stream>>>(sum, width, height, x_begin, x_end - x_begin, inv, gain,
                                                       thresholds, out, row_bytes);
+  return cudaGetLastError();
+}
+
+cudaError_t launch_mean_columns(const double* sum, int width, int height, int x_begin, int x_end, double inv,
+                                float* out, cudaStream_t stream) {
+  if (x_begin < 0) x_begin = 0;
+  if (x_end > width) x_end = width;
+  if (x_end <= x_begin || height <= 0) return cudaSuccess;
+  const dim3 block(32, 8);
+  const dim3 grid(unsigned((x_end - x_begin + 31) / 32), unsigned((height + 7) / 8));
+  mean_columns_kernel<<<grid, block, 0, stream>>>(sum, width, height, x_begin, x_end - x_begin, inv, out);
+  return cudaGetLastError();
+}
+
+cudaError_t launch_tone_map_rgb(const float* rgb, int width, int height, float gain, const float* thresholds,
+                                unsigned char* out, size_t row_bytes, cudaStream_t stream) {
+  if (width <= 0 || height <= 0) return cudaSuccess;
+  const dim3 block(32, 8);
+  const dim3 grid(unsigned((width + 31) / 32), unsigned((height + 7) / 8));
+  tone_map_rgb_kernel<<<grid, block, 0, stream>>>(rgb, width, height, gain, thresholds, out, row_bytes);
   return cudaGetLastError();
 }
 

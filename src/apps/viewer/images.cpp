@@ -12,6 +12,12 @@
 #include "apps/options.h"
 #include "apps/viewer/viewer_state.h"
 #include "io/image.h"
+#include "render/oidn.h"
+
+#if PN_VIEWER_INTEROP
+#include "apps/viewer/device_image.h"
+#include "backends/optix/optix_backend.h"
+#endif
 
 namespace pn::viewer {
 
@@ -102,19 +108,29 @@ double Viewer::render_samples() {
   return f.ms;
 }
 
-// The denoise toggle: this frame's composed image, denoised, tone-mapped on the
-// host and uploaded (the host path also under interop: the denoiser's output is
-// a host image). False, and the toggle off with a status line, where it cannot
-// run (Intel Open Image Denoise not installed: one line saying how to get it).
+// The denoise toggle: this frame's composed image, denoised. On the interop path
+// where OIDN has a CUDA device for the GPU, nothing goes through host memory
+// (show_denoised_on_device); else the mean is copied to the host, denoised there
+// or by OIDN's CUDA device from host images, tone-mapped on the host and
+// uploaded. False, and the toggle off with a status line, where it cannot run
+// (Intel Open Image Denoise not installed: one line saying how to get it).
 bool Viewer::show_denoised() {
   try {
     // Intel Open Image Denoise (backends/denoise.h), its library found once (apps/options.h).
     static const DenoiseOptions options = denoise_options(DenoiseArgs{});
     check_denoise_backend("denoise", *backend_, options);
-    if (guides_.width != scheduler_.applied().width || guides_.height != scheduler_.applied().height)
+    if (guides_.width != scheduler_.applied().width || guides_.height != scheduler_.applied().height) {
       guides_ = backend_->render_guides(guide_frame_, kGuideSamples);
+      guides_on_device_ = false;
+    }
+    const std::string before = denoiser_;
+    if (show_denoised_on_device(options)) {
+      if (denoiser_ != before) std::fprintf(stderr, "view: denoise: %s\n", denoiser_.c_str());
+      return true;
+    }
     const std::vector<float> rgb =
         denoise_image(*backend_, scheduler_.composed_mean(divider_), guides_, options, &denoise_ms_, &denoiser_);
+    if (denoiser_ != before) std::fprintf(stderr, "view: denoise: %s\n", denoiser_.c_str());
     const DisplayPixels px = display_->host_pixels();
     const float gain = std::exp2(exposure_);
     for (int y = 0; y < px.height; ++y) {
@@ -133,6 +149,37 @@ bool Viewer::show_denoised() {
     denoise_ = false;
     return false;
   }
+}
+
+// The interop path's denoise (device_image.h's DeviceDenoiser): the images' mean into a device image, OIDN's CUDA
+// device on it in place, a kernel's tone-map into the mapped GL buffer. False where that path does not apply (host
+// images, another backend, OIDN without a CUDA device for this GPU): the caller takes the host path.
+bool Viewer::show_denoised_on_device(const DenoiseOptions& options) {
+#if PN_VIEWER_INTEROP
+  auto* optix = dynamic_cast<OptixBackend*>(backend_.get());
+  if (!optix || !scheduler_.writes_device_pixels() || options.denoiser != DenoiserKind::Oidn) return false;
+  Oidn& oidn = oidn_for(options.oidn_library);
+  if (!oidn.cuda_supported(optix->cuda_device())) return false;
+  if (!device_denoiser_) device_denoiser_ = std::make_shared<DeviceDenoiser>(optix->cuda_device());
+  if (!guides_on_device_) {
+    device_denoiser_->set_guides(guides_);
+    guides_on_device_ = true;
+  }
+  scheduler_.write_mean_device(device_denoiser_->color(), divider_);
+  OidnFilterOptions filter;
+  filter.quality = options.quality;
+  filter.clean_aux = options.clean_aux;
+  denoise_ms_ = device_denoiser_->denoise(oidn, filter);
+  denoiser_ = std::string("Intel Open Image Denoise, CUDA device, on the image in GPU memory, quality ") +
+              denoise_quality_name(options.quality);
+  const DisplayPixels px = display_->map_device_pixels();
+  device_denoiser_->tone_map(px, exposure_);
+  display_->upload_mapped();
+  return true;
+#else
+  (void)options;
+  return false;
+#endif
 }
 
 }  // namespace pn::viewer

@@ -84,6 +84,10 @@ unsigned char srgb8_fast(float v) { return srgb8_by_thresholds(v, thresholds().d
 
 const float* srgb8_thresholds() { return thresholds().data(); }
 
+void ProgressiveImage::write_mean_device(float*, int, int) const {
+  throw std::logic_error("write_mean_device() on an image in host memory");
+}
+
 const char* display_path_name(DisplayPath path) {
   return path == DisplayPath::Interop ? "CUDA-OpenGL interop" : "host upload";
 }

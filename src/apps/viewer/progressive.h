@@ -60,6 +60,11 @@ class ProgressiveImage {
   virtual bool writes_device_pixels() const { return false; }
   // The linear mean, RGB float, row 0 at the top: screenshots (EXR and PNG).
   virtual std::vector<float> mean() const = 0;
+  // Device images only (writes_device_pixels()): columns [x_begin, x_end) of the
+  // linear mean into `rgb`, a device image of this size (3 floats a pixel), a
+  // value that is not finite as 0; written when it returns. The default throws
+  // std::logic_error.
+  virtual void write_mean_device(float* rgb, int x_begin, int x_end) const;
 };
 
 // How the image reaches the screen, chosen once the window is open.

@@ -95,6 +95,12 @@ std::vector<float> RenderScheduler::composed_mean(float divider) const {
   return out;
 }
 
+void RenderScheduler::write_mean_device(float* rgb, float divider) const {
+  const int d = divider_column(divider);
+  sides_[0].image->write_mean_device(rgb, 0, d);
+  if (sides_.size() > 1) sides_[1].image->write_mean_device(rgb, d, applied_.width);
+}
+
 void RenderScheduler::tone_map(const DisplayPixels& px, float divider, float exposure) const {
   const int d = divider_column(divider);
   sides_[0].image->tone_map(px, 0, d, exposure);

@@ -118,6 +118,8 @@ class RenderScheduler {
   int divider_column(float divider) const;  // the right side's first column; the width without split screen
   // The screen's image: the left side's columns left of the divider, the right side's from it.
   std::vector<float> composed_mean(float divider) const;
+  // The same into a device image (device images only, ProgressiveImage::write_mean_device).
+  void write_mean_device(float* rgb, float divider) const;
   void tone_map(const DisplayPixels& px, float divider, float exposure) const;
   bool writes_device_pixels() const { return !sides_.empty() && sides_[0].image->writes_device_pixels(); }
 

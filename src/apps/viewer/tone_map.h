@@ -32,4 +32,10 @@ PN_HD inline void tone_map_pixel(const double* sum3, double inv, float gain, con
   rgba[3] = 255;
 }
 
+// The same from a linear RGB value (a denoised image): rgba[0..2] = sRGB8(rgb * gain), as write_image writes a PNG.
+PN_HD inline void tone_map_rgb(const float* rgb, float gain, const float* t, unsigned char* rgba) {
+  for (int c = 0; c < 3; ++c) rgba[c] = srgb8_by_thresholds(rgb[c] * gain, t);
+  rgba[3] = 255;
+}
+
 }  // namespace pn::viewer

@@ -324,7 +324,8 @@ int Viewer::run() {
     const auto td = Clock::now();
     // Interop: CUDA writes the mapped GL pixel buffer; host: the staging buffer, uploaded.
     const bool device = scheduler_.writes_device_pixels();
-    if (!(denoise_ && show_denoised())) {
+    const bool denoised = denoise_ && show_denoised();
+    if (!denoised) {
       DisplayPixels px = device ? display_->map_device_pixels() : display_->host_pixels();
       scheduler_.tone_map(px, divider_, exposure_);
       if (device) display_->upload_mapped();
@@ -349,6 +350,7 @@ int Viewer::run() {
     frame_ms_.push_back(last_frame_ms_);
     render_ms_.push_back(render_ms);
     display_ms_.push_back(display_ms);
+    if (denoised) denoise_frame_ms_.push_back(denoise_ms_);
     present_ms_.push_back(present_ms);
     recent_ms_.push_back(float(last_frame_ms_));
     if (recent_ms_.size() > 120) recent_ms_.erase(recent_ms_.begin());
@@ -381,6 +383,13 @@ int Viewer::run() {
                  render, display, total / n - render - display - present, present,
                  display_path_name(display_path_.path), backend_->name().c_str(),
                  offscreen_ ? ", headless" : "");
+    if (!denoise_frame_ms_.empty()) {
+      std::vector<double> d = denoise_frame_ms_;
+      std::sort(d.begin(), d.end());
+      std::fprintf(stderr, "view: denoised %zu frames: the denoiser %.2f ms a frame (median %.2f ms; inside tone-map + "
+                   "upload; %s)\n", d.size(), std::accumulate(d.begin(), d.end(), 0.0) / d.size(), d[d.size() / 2],
+                   denoiser_.c_str());
+    }
   }
   std::fprintf(stderr, "view: the scene was loaded %d time%s, a backend made %d time%s\n", scene_loads_,
                scene_loads_ == 1 ? "" : "s", backend_builds_, backend_builds_ == 1 ? "" : "s");

@@ -29,6 +29,8 @@ struct GLFWwindow;
 
 namespace pn::viewer {
 
+class DeviceDenoiser;  // device_image.h (built with CUDA)
+
 
 inline const char* const kRenderHint = "use `penumbra render` to render to a file instead";
 
@@ -63,6 +65,7 @@ class Viewer {
   ImageSettings wanted() const;
   void restart(const ImageSettings& s);
   bool show_denoised();
+  bool show_denoised_on_device(const DenoiseOptions& options);
   std::string screenshot_stem() const;
   void screenshot(const std::string& path);
   void screenshot_button();
@@ -111,12 +114,15 @@ class Viewer {
   bool panel_ = true;
   bool fly_ = false;
   // Denoise toggle (N, the panel): the screen shows the composed image denoised
-  // by Intel Open Image Denoise, with guides rendered once per restart.
+  // by Intel Open Image Denoise, with guides rendered once per restart; on the
+  // interop path on the GPU, with no image through host memory (DeviceDenoiser).
   bool denoise_ = false;
   double denoise_ms_ = 0;  // the last frame's denoiser time (host clock around the filter)
   std::string denoiser_;   // which denoiser ran, on which device
   FrameSpec guide_frame_;
   GuideImages guides_;
+  bool guides_on_device_ = false;  // guides_ uploaded to device_denoiser_
+  std::shared_ptr<DeviceDenoiser> device_denoiser_;  // shared_ptr: its type is complete only in CUDA builds
   float fly_speed_ = 1.f;  // scene units per second
   std::string camera_file_;
   std::string status_;  // last message in the panel
@@ -132,6 +138,7 @@ class Viewer {
   std::vector<float> recent_ms_;  // the last frames' times, oldest first, for the graph
   double last_frame_ms_ = 0, last_render_ms_ = 0;
   std::vector<double> frame_ms_, render_ms_, display_ms_, present_ms_;  // every frame, for --frames
+  std::vector<double> denoise_frame_ms_;  // the denoiser's time in each frame shown denoised
   std::vector<PathAction> path_;
   size_t next_action_ = 0;
   bool quit_ = false;
