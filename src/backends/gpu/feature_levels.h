@@ -15,11 +15,10 @@ namespace gpu {
 // GGX, texture and environment code in its megakernel.
 constexpr uint32_t kNumFeatureLevels = 3;
 enum : uint32_t { kFeatureLevel_basic = 0, kFeatureLevel_textured = 1, kFeatureLevel_full = 2 };
-// Every level holds the code of ltc, sg-bvh and slc (kExtraLightSampling): the megakernel runs them at any level;
-// the wavefront's shading kernels keep only what the configuration runs (wavefront_gpu.cu).
-constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {kExtraLightSampling,
-                                                        kFeatureShading | kFeatureTextures | kExtraLightSampling,
-                                                        kAllFeatures};
+// No level holds the code of ltc, sg-bvh and slc (kExtraLightSampling): the configurations that run them have
+// programs and kernels of their own, at the full level (the megakernel's _extra raygens, device_programs.cu; the
+// wavefront's kernels with kExtra, wavefront_gpu.cu).
+constexpr uint32_t kFeatureLevels[kNumFeatureLevels] = {0, kFeatureShading | kFeatureTextures, kSceneFeatures};
 constexpr const char* kFeatureLevelNames[kNumFeatureLevels] = {"basic", "textured", "full"};
 
 }  // namespace gpu

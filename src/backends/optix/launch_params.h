@@ -39,10 +39,13 @@ enum : uint32_t { kMissRadiance = 0, kMissShadow = 1, kNumMissPrograms = 2 };
 // records are the mesh hit group. The spheres' instance starts at kSbtSphere.
 enum : uint32_t { kSbtMesh = 0, kSbtSphere = 2, kNumHitRecords = 3 };
 
-// Raygen programs: two per strategy, without and with MIS, in registry order;
-// then the trace stage's and the guides' programs.
-constexpr uint32_t kNumRaygens = 2 * uint32_t(kNumStrategies);
-PN_FN uint32_t raygen_index(Strategy s, Mis mis) { return 2u * uint32_t(s) + (mis == Mis::None ? 0u : 1u); }
+// Raygen programs: four per strategy, in registry order: without and with MIS, each at the scene's feature level
+// and with the extra light sampling (core/features.h: ltc, sg-bvh, slc; at the full level); then the trace stage's
+// and the guides' programs.
+constexpr uint32_t kNumRaygens = 4 * uint32_t(kNumStrategies);
+PN_FN uint32_t raygen_index(Strategy s, Mis mis, bool extra) {
+  return 4u * uint32_t(s) + (mis == Mis::None ? 0u : 1u) + (extra ? 2u : 0u);
+}
 // The trace stage's trace-only launches (backends/trace_stage.h): rays in, hits or bits out.
 constexpr uint32_t kRaygenTraceClosest = kNumRaygens;
 constexpr uint32_t kRaygenTraceShadow = kNumRaygens + 1;

@@ -199,11 +199,12 @@ class OptixBackendImpl final : public OptixBackend {
     }
     const uint32_t launches = count == 0 ? 0 : (count + per_launch - 1) / per_launch;
     const uint64_t total = uint64_t(pixels) * count;
-    // The raygen program of the strategy, with or without MIS.
+    // The raygen program of the strategy, with or without MIS, with the extra light sampling where it runs any.
     const int strategy = int(frame.integrator.strategy);
     if (strategy < 0 || strategy >= kNumStrategies || int(frame.integrator.mis) >= kNumMisModes)
       throw std::logic_error("unknown strategy or MIS mode");
-    const OptixShaderBindingTable sbt = pipeline_.sbt(raygen_index(frame.integrator.strategy, frame.integrator.mis));
+    const OptixShaderBindingTable sbt = pipeline_.sbt(raygen_index(
+        frame.integrator.strategy, frame.integrator.mis, extra_light_sampling(frame.integrator) != 0));
     // A W x H launch, or a 1D launch of pixels / pixels_per_thread threads
     // (see render_pixels in device_programs.cu).
     const bool launch_2d = launch_2d_ && pixels_per_thread_ == 1;

@@ -89,15 +89,17 @@ void Pipeline::build(OptixDeviceContext context, uint32_t features, SphereMode s
   };
   raygen_.assign(kNumRaygenPrograms, nullptr);
   for (int i = 0; i < kNumStrategies; ++i)
-    for (Mis mis : {Mis::None, Mis::Power}) {
-      const std::string entry = std::string("__raygen__") + strategy_enum_names[i] + (mis == Mis::None ? "_" : "_mis_") +
-                                gpu::kFeatureLevelNames[feature_level_];
-      d = {};
-      d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
-      d.raygen.module = module_;
-      d.raygen.entryFunctionName = entry.c_str();
-      make_group(d, &raygen_[raygen_index(Strategy(i), mis)]);
-    }
+    for (Mis mis : {Mis::None, Mis::Power})
+      for (bool extra : {false, true}) {
+        const std::string entry = std::string("__raygen__") + strategy_enum_names[i] +
+                                  (mis == Mis::None ? "_" : "_mis_") +
+                                  (extra ? "extra" : gpu::kFeatureLevelNames[feature_level_]);
+        d = {};
+        d.kind = OPTIX_PROGRAM_GROUP_KIND_RAYGEN;
+        d.raygen.module = module_;
+        d.raygen.entryFunctionName = entry.c_str();
+        make_group(d, &raygen_[raygen_index(Strategy(i), mis, extra)]);
+      }
   const std::string guides = std::string("__raygen__guides_") + gpu::kFeatureLevelNames[feature_level_];
   for (auto [index, entry] : {std::pair<uint32_t, const char*>{kRaygenTraceClosest, "__raygen__trace_closest"},
                               {kRaygenTraceShadow, "__raygen__trace_shadow"},

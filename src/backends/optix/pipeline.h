@@ -30,7 +30,7 @@ class Pipeline {
   OptixPipeline get() const { return pipeline_; }
   uint32_t feature_level() const { return feature_level_; }  // index into gpu::kFeatureLevels
   // The shader binding table whose raygen record is program `raygen`
-  // (raygen_index(strategy, mis), or kRaygenTraceClosest, ...).
+  // (raygen_index(strategy, mis, extra), or kRaygenTraceClosest, ...).
   OptixShaderBindingTable sbt(uint32_t raygen) const;
 
  private:
@@ -40,7 +40,7 @@ class Pipeline {
   OptixDeviceContext context_ = nullptr;
   uint32_t feature_level_ = gpu::kNumFeatureLevels - 1;
   OptixModule module_ = nullptr, sphere_is_module_ = nullptr;
-  std::vector<OptixProgramGroup> raygen_;  // by raygen_index(strategy, mis), then kRaygenTraceClosest, ...
+  std::vector<OptixProgramGroup> raygen_;  // by raygen_index(strategy, mis, extra), then kRaygenTraceClosest, ...
   OptixProgramGroup miss_[kNumMissPrograms] = {}, hit_[kNumHitGroups] = {};
   OptixPipeline pipeline_ = nullptr;
   OptixShaderBindingTable sbt_ = {};
