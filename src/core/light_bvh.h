@@ -99,12 +99,26 @@ PN_FN LightBvhNode load_light_bvh_node(const LightBvhNode* nodes, uint32_t i) {
 #endif
 }
 
-// The importance I of the node at shading point p with unit normal n.
-PN_FN float light_bvh_importance(const LightBvhNode& b, Vec3 p, Vec3 n) {
-  const Vec3 extent = b.hi - b.lo;
-  const Vec3 to_p = p - (b.lo + b.hi) * 0.5f;  // from the box's centre
-  const float dist2 = length_sq(to_p);
-  const float r2 = length_sq(extent) * 0.25f;  // the box's bounding sphere, squared radius
+// A node's box as the shading point p sees it: what the bound and the SG estimate share.
+struct LightBvhNodeView {
+  Vec3 extent;  // hi - lo
+  Vec3 to_p;    // p from the box's centre
+  float dist2;  // |to_p|^2
+  float r2;     // the box's bounding sphere, squared radius
+};
+PN_FN LightBvhNodeView light_bvh_node_view(const LightBvhNode& b, Vec3 p) {
+  LightBvhNodeView g;
+  g.extent = b.hi - b.lo;
+  g.to_p = p - (b.lo + b.hi) * 0.5f;
+  g.dist2 = length_sq(g.to_p);
+  g.r2 = length_sq(g.extent) * 0.25f;
+  return g;
+}
+
+// The importance I of the node at a shading point with unit normal n, the node seen from there as g.
+PN_FN float light_bvh_importance(const LightBvhNode& b, const LightBvhNodeView& g, Vec3 n) {
+  const Vec3 extent = g.extent, to_p = g.to_p;
+  const float dist2 = g.dist2, r2 = g.r2;
   // p's distance to the box's nearest point, per axis: |to_p| - extent / 2 where that is positive.
   const float near2 = length_sq(vmax(vabs(to_p) - extent * 0.5f, Vec3(0.f)));
   const float d2 = pn_max(0.5f * (dist2 + near2), r2 * (1.f / 64.f));  // d >= r / 8
@@ -134,6 +148,11 @@ PN_FN float light_bvh_importance(const LightBvhNode& b, Vec3 p, Vec3 n) {
   const float cos_pi = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
   if (!(cos_pi > 0.f)) return 0.f;
   return b.phi * cos_p * cos_pi / d2;
+}
+
+// The importance I of the node at shading point p with unit normal n.
+PN_FN float light_bvh_importance(const LightBvhNode& b, Vec3 p, Vec3 n) {
+  return light_bvh_importance(b, light_bvh_node_view(b, p), n);
 }
 
 // --- Importance with the BSDF's lobes: spherical Gaussians (sg-bvh) ---------------------
@@ -202,11 +221,12 @@ PN_FN SgLobes make_sg_lobes(const LightSampleContext& ctx) {
 
 // The node's importance for the lobes: I_sg, between the floor above and 0 where the bound is 0.
 PN_FN_CALLED float light_bvh_importance_sg(const LightBvhNode& b, Vec3 p, const SgLobes& lobes) {
-  const float bound = light_bvh_importance(b, p, lobes.n);
+  const LightBvhNodeView g = light_bvh_node_view(b, p);
+  const float bound = light_bvh_importance(b, g, lobes.n);
   const float weight = lobes.diffuse + lobes.specular;
   if (!(bound > 0.f) || !(weight > 0.f)) return bound;
-  const Vec3 to_c = (b.lo + b.hi) * 0.5f - p;
-  const float dist2 = length_sq(to_c), r2 = length_sq(b.hi - b.lo) * 0.25f;
+  const Vec3 to_c = -g.to_p;  // the box's centre from p (exactly centre - p)
+  const float dist2 = g.dist2, r2 = g.r2;
   // The light's SG: around the centre's direction, sharpness 2 / sin^2(theta_b) (about 0 from inside the sphere).
   const float sin2_b = dist2 > r2 ? r2 / dist2 : 1.f;
   const float lambda_l = 2.f / pn_max(sin2_b, 1e-12f);
