@@ -84,6 +84,25 @@ def many_report_name(head):
         (f"{'-'.join(head)}.md", f"many_lights_{'-'.join(head)}.json")
 
 
+def many_binaries(head, sweep):
+    """{commit of the binary: the runs it made, by scene and methods}, in the order met: which numbers of a report
+    were measured by which binary."""
+    out = {}
+    for scene, runs in head.items():
+        by = {}
+        for sel, r in runs.items():
+            by.setdefault(r.get("git_commit", "unknown"), []).append(sel)
+        for c, sels in by.items():
+            out.setdefault(c, []).append(f"{scene} ({', '.join(sels)})")
+    by = {}
+    for sel, runs in sweep.items():
+        for c in dict.fromkeys(r.get("git_commit", "unknown") for r in runs):
+            by.setdefault(c, []).append(sel)
+    for c, sels in by.items():
+        out.setdefault(c, []).append(f"the lights-count sweep ({', '.join(sels)})")
+    return out
+
+
 def write_many_report(args, cfg, head, sweep, bench, out_dir):
     fig_dir = os.path.join(out_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
@@ -93,6 +112,11 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
     w = lines.append
     w("# Many lights: light selection at equal time\n")
     w(generated_by(args, " --part many-lights", env))
+    binaries = many_binaries(head, sweep)
+    if len(binaries) > 1:
+        w("**The runs come from " + str(len(binaries)) + " binaries** (each a clean commit; the ratios compare runs "
+          "of different binaries where a row's method and `power` differ): " +
+          "; ".join(f"`{c}`: {', '.join(names)}" for c, names in binaries.items()) + ".\n")
     w("## What was measured\n")
     if not head:
         w("- The lights-count sweep and `penumbra bench` per count (below); time: GPU time (CUDA events) on the GPU, "
