@@ -41,7 +41,7 @@ def many_group(plan_, head):
 
 def many_bench(args, cfg, out_dir):
     """`penumbra bench` per lights count: ms per launch of each method, the light BVH's build and size (CLI only)."""
-    if args.engine != "cli" or not os.path.exists(args.penumbra):
+    if args.engine != "cli" or (not args.report_only and not os.path.exists(args.penumbra)):
         return []
     out = []
     for n in cfg["counts"]:
