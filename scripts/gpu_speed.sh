@@ -6,7 +6,8 @@
 #   scripts/gpu_speed.sh [PENUMBRA] [OUT_DIR]      (defaults: build/penumbra, docs/results/gpu-speed)
 #
 # Scenes that need models from outside the repository (sponza) are left out where penumbra does not list them.
-# The report (OUT_DIR/README.md) is written by scripts/gpu_speed_report.py from the JSON files beside it.
+# The report (OUT_DIR/README.md) is written by scripts/gpu_speed_report.py from the JSON files beside it; where ncu
+# is installed, scripts/gpu_profile.py adds the kernels' times (profile.md).
 set -euo pipefail
 penumbra=${1:-build/penumbra}
 out=${2:-docs/results/gpu-speed}
@@ -31,4 +32,9 @@ echo "== probe" >&2
 probe_status=0
 "$penumbra" bench --backend optix --scenes "$scenes" --probe --json "$out/probe.json" >&2 || probe_status=$?
 if [[ $probe_status != 0 && $probe_status != 3 ]]; then exit "$probe_status"; fi
+# Per kernel (Nsight Compute), where ncu is installed: profile.md, which the report links.
+if command -v ncu >/dev/null 2>&1; then
+  echo "== profile" >&2
+  python3 "$here/gpu_profile.py" --penumbra "$penumbra" --out "$out" --scenes "${scenes%%,many-spheres}" >&2
+fi
 python3 "$here/gpu_speed_report.py" "$out"

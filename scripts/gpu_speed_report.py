@@ -80,6 +80,9 @@ def main(out):
                              f"{f['closest_ties']:,} | {f['closest_other']:,} | {f['shadow_mismatched']:,} |")
     lines += ["", "Files: `bench_<path>.json` (every launch's spread, trace and accumulation times, ray counts, "
               "scene builds), `probe.json` (both trace stages' times and their agreement on every ray).", ""]
+    if os.path.exists(os.path.join(out, "profile.md")):
+        lines += ["Where a sample's GPU time goes, kernel by kernel (Nsight Compute, `scripts/gpu_profile.py`): "
+                  "[profile.md](profile.md).", ""]
     with open(os.path.join(out, "README.md"), "w") as f:
         f.write("\n".join(lines))
     print(f"wrote {os.path.join(out, 'README.md')}")
