@@ -8,7 +8,8 @@ from .common import checks_passed, log, write_text
 from .executors import run_cmd
 from .metrics import (many_efficiency, many_mean_bias, many_relmse_efficiency, many_technique, median_seed_slope,
                       mse_nolight)
-from .planner import MANY_CORRELATED, MANY_PARAMS, MANY_SCENES, MANY_SELECTIONS, MANY_STRATEGIES
+from .planner import (MANY_CORRELATED, MANY_PARAMS, MANY_SCENES, MANY_SELECTION_STRATEGIES, MANY_SELECTIONS,
+                      MANY_STRATEGIES)
 from .report import fmt, generated_by, matplotlib, plt
 
 # Every selection method with every light-sampling strategy (MIS power) on the
@@ -142,7 +143,9 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
           restir_env.get("light_selection", "?") + "; see the runs' summary.json for each method's settings. "
           "**`restir-biased` is the paper's biased combination: its error includes its bias.** "
           "**`restir-temporal`'s samples are correlated within a render** (each takes its pixel's last reservoir): "
-          "its error is measured as it is, at each spp, over independent seeds; its slope is not -1/2.")
+          "its error is measured as it is, at each spp, over independent seeds; its slope is not -1/2." +
+          "".join(f" `{sel}` runs with {' and '.join(sts)} alone (its cost a sample)."
+                  for sel, sts in MANY_SELECTION_STRATEGIES.items()))
         w("- Time: GPU time (CUDA events) on the GPU, wall time on the CPU. **Efficiency** = 1 / (MSE x time) at the "
           "largest spp, relative to `power` with the same strategy (> 1: better at equal time); relMSE-efficiency the "
           "same with relMSE (pbrt's, (x - ref)^2 / (ref^2 + 0.01)). Both **without the pixels that see a lamp "
@@ -161,7 +164,9 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         for sel in sels:
             rel = many_relmse_efficiency(runs[sel], "solid-angle") / many_relmse_efficiency(runs["power"], "solid-angle")
             ms = runs[sel]["strategies"][many_technique("solid-angle")]["ms_per_spp"]
-            w(f"| `{sel}` | " + " | ".join(fmt(many_efficiency(runs, sel, st)) for st in MANY_STRATEGIES) +
+            w(f"| `{sel}` | " + " | ".join(fmt(many_efficiency(runs, sel, st))
+                                           if many_technique(st) in runs[sel]["strategies"] else "not run"
+                                           for st in MANY_STRATEGIES) +
               f" | {fmt(rel)} | {ms:.3f} | {fmt(many_efficiency(runs, sel, 'solid-angle', key='efficiency'))} |")
         missing = [sel for sel in MANY_SELECTIONS if sel not in runs]
         if missing:
@@ -331,7 +336,7 @@ def many_check(head, sweep, out_dir):
     runs = head["many-spheres"]
     failures = [f"many-spheres: no {sel} run" for sel in MANY_SELECTIONS if sel not in runs]
     for sel in [s for s in MANY_SELECTIONS if s != "restir-biased" and s not in MANY_CORRELATED and s in runs]:
-        for st in MANY_STRATEGIES:
+        for st in MANY_SELECTION_STRATEGIES.get(sel, MANY_STRATEGIES):
             # A slope near 0 or above is what a method that does not converge gives (the 1/Z ReSTIR's fireflies:
             # +0.08 at 1080p). At the smoke preset's 24x16 pixels and 1-32 spp the fitted slope itself varies
             # with the random numbers: by about +-0.25 with 2 seeds (g++: -0.39 to -0.56; the same study built
