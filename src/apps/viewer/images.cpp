@@ -173,7 +173,12 @@ bool Viewer::show_denoised_on_device(const DenoiseOptions& options) {
   denoiser_ = std::string("Intel Open Image Denoise, CUDA device, on the image in GPU memory, quality ") +
               denoise_quality_name(options.quality);
   const DisplayPixels px = display_->map_device_pixels();
-  device_denoiser_->tone_map(px, exposure_);
+  try {
+    device_denoiser_->tone_map(px, exposure_);
+  } catch (...) {
+    display_->upload_mapped();  // unmapped again, for the raw frame the caller draws instead
+    throw;
+  }
   display_->upload_mapped();
   return true;
 #else
