@@ -265,7 +265,7 @@ TEST(Denoise, OidnOnTheCpuBackend) {
 
 // OIDN's filter is kept between calls (committing it loads the weights): a kept filter gives the image a new one
 // gives, bit for bit, and another image or size in between leaves nothing behind.
-TEST(Denoise, AKeptFilterDenoisesAsANewOne) {
+TEST(Denoise, OidnKeptFilterDenoisesAsANewOne) {
   const DenoiseOptions o = oidn_or_skip();
   SKIP_WITHOUT_OIDN(o);
   auto render = [](int w, int h, uint32_t seed) {
