@@ -117,9 +117,11 @@ PN_FN uint32_t extra_light_sampling(const IntegratorSettings& s) {
          (s.light_selection == LightSelection::Slc ? uint32_t(kFeatureSlc) : 0u);
 }
 
-// Light samples a vertex makes: one, or with slc one per node of its cut and one of the environment.
-PN_FN uint32_t light_samples_per_vertex(const IntegratorSettings& s) {
-  return s.light_selection == LightSelection::Slc ? pn_min(pn_max(s.slc_cut, 1u), kMaxLightCut) + 1u : 1u;
+// Light samples a vertex makes at most: one, or with slc one per node of its cut and one of the environment
+// where the scene has one (light_cut_queries).
+PN_FN uint32_t light_samples_per_vertex(const IntegratorSettings& s, bool environment) {
+  if (s.light_selection != LightSelection::Slc) return 1u;
+  return pn_min(pn_max(s.slc_cut, 1u), kMaxLightCut) + (environment ? 1u : 0u);
 }
 
 // Whether the previous vertex a step reads (path_reads_prev) must hold the BSDF's lobes too: for `ltc`'s pdf and

@@ -176,8 +176,8 @@ const Case kWavefrontCases[] = {
     {"many-spheres", {"defaults.lights=200", "render.light_selection=restir", "render.restir.neighbors=6",
                       "render.restir.radius=4"}},
     {"many-spheres", {"defaults.lights=200", "render.light_selection=power", "render.max_depth=1"}},
-    // slc with a cut of one node: one query a vertex, in a pool whose waves hold half its paths (a slot kept for
-    // the environment's), and added atomically (WavefrontView::shared_slots): the same sums.
+    // slc with a cut of one node in a scene without an environment: one query a vertex, one slot a path, as bvh's
+    // (WavefrontView::shared_slots off; glossy's sky takes a second slot, WavefrontSlc below): the same sums.
     {"many-spheres", {"defaults.lights=200", "render.light_selection=slc", "render.slc_cut=1"}},
 };
 

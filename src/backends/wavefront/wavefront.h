@@ -272,9 +272,10 @@ struct WavefrontView {
 };
 
 // The paths a wave of a pool of `capacity` holds: fewer than the pool where a vertex makes several shadow queries
-// (slc), so that the shadow queue, as long as the pool, holds every query of a bounce.
-PN_FN uint32_t wave_paths(uint32_t capacity, const IntegratorSettings& s) {
-  return pn_max(capacity / light_samples_per_vertex(s), 1u);
+// (slc), so that the shadow queue, as long as the pool, holds every query of a bounce. `environment`: the scene
+// has an environment light (SceneView::selection.infinite_light >= 0), which slc samples besides its cut.
+PN_FN uint32_t wave_paths(uint32_t capacity, const IntegratorSettings& s, bool environment) {
+  return pn_max(capacity / light_samples_per_vertex(s, environment), 1u);
 }
 
 // Bytes of one path's state and queue entries: what the pool costs per slot.

@@ -675,8 +675,9 @@ bool WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, ui
   WaveParams p;
   p.view = view_;
   p.view.restir = restir;
-  p.view.shared_slots = light_samples_per_vertex(frame.integrator) > 1 ? 1u : 0u;
-  const uint32_t paths = wave_paths(capacity_, frame.integrator);
+  const bool environment = device_scene.selection.infinite_light >= 0;
+  p.view.shared_slots = light_samples_per_vertex(frame.integrator, environment) > 1 ? 1u : 0u;
+  const uint32_t paths = wave_paths(capacity_, frame.integrator, environment);
   p.scene = device_scene;
   p.camera = frame.camera;
   p.integrator = frame.integrator;
