@@ -48,6 +48,17 @@ __global__ void tone_map_rgb_kernel(const float* __restrict__ rgb, int width, in
   *reinterpret_cast<uchar4*>(out + size_t(y) * row_bytes + size_t(x) * 4) = make_uchar4(px[0], px[1], px[2], px[3]);
 }
 
+// The launch of a kernel over columns [x_begin, x_end) of every row (clamped to the image), a thread a pixel in
+// blocks of kColumnBlock; false where there is no pixel to do.
+constexpr dim3 kColumnBlock(32, 8);
+bool column_grid(int width, int height, int* x_begin, int* x_end, dim3* grid) {
+  if (*x_begin < 0) *x_begin = 0;
+  if (*x_end > width) *x_end = width;
+  if (*x_end <= *x_begin || height <= 0) return false;
+  *grid = dim3(unsigned((*x_end - *x_begin + 31) / 32), unsigned((height + 7) / 8));
+  return true;
+}
+
 }  // namespace
 
 cudaError_t launch_add_sums(double* acc, const double* add, size_t n, cudaStream_t stream) {
@@ -61,33 +72,27 @@ cudaError_t launch_add_sums(double* acc, const double* add, size_t n, cudaStream
 cudaError_t launch_tone_map_columns(const double* sum, int width, int height, int x_begin, int x_end, double inv,
                                     float gain, const float* thresholds, unsigned char* out, size_t row_bytes,
                                     cudaStream_t stream) {
-  if (x_begin < 0) x_begin = 0;
-  if (x_end > width) x_end = width;
-  if (x_end <= x_begin || height <= 0) return cudaSuccess;
-  const dim3 block(32, 8);
-  const dim3 grid(unsigned((x_end - x_begin + 31) / 32), unsigned((height + 7) / 8));
-  tone_map_columns_kernel<<<grid, block, 0, stream>>>(sum, width, height, x_begin, x_end - x_begin, inv, gain,
-                                                      thresholds, out, row_bytes);
+  dim3 grid;
+  if (!column_grid(width, height, &x_begin, &x_end, &grid)) return cudaSuccess;
+  tone_map_columns_kernel<<<grid, kColumnBlock, 0, stream>>>(sum, width, height, x_begin, x_end - x_begin, inv, gain,
+                                                             thresholds, out, row_bytes);
   return cudaGetLastError();
 }
 
 cudaError_t launch_mean_columns(const double* sum, int width, int height, int x_begin, int x_end, double inv,
                                 float* out, cudaStream_t stream) {
-  if (x_begin < 0) x_begin = 0;
-  if (x_end > width) x_end = width;
-  if (x_end <= x_begin || height <= 0) return cudaSuccess;
-  const dim3 block(32, 8);
-  const dim3 grid(unsigned((x_end - x_begin + 31) / 32), unsigned((height + 7) / 8));
-  mean_columns_kernel<<<grid, block, 0, stream>>>(sum, width, height, x_begin, x_end - x_begin, inv, out);
+  dim3 grid;
+  if (!column_grid(width, height, &x_begin, &x_end, &grid)) return cudaSuccess;
+  mean_columns_kernel<<<grid, kColumnBlock, 0, stream>>>(sum, width, height, x_begin, x_end - x_begin, inv, out);
   return cudaGetLastError();
 }
 
 cudaError_t launch_tone_map_rgb(const float* rgb, int width, int height, float gain, const float* thresholds,
                                 unsigned char* out, size_t row_bytes, cudaStream_t stream) {
-  if (width <= 0 || height <= 0) return cudaSuccess;
-  const dim3 block(32, 8);
-  const dim3 grid(unsigned((width + 31) / 32), unsigned((height + 7) / 8));
-  tone_map_rgb_kernel<<<grid, block, 0, stream>>>(rgb, width, height, gain, thresholds, out, row_bytes);
+  int x_begin = 0, x_end = width;
+  dim3 grid;
+  if (!column_grid(width, height, &x_begin, &x_end, &grid)) return cudaSuccess;
+  tone_map_rgb_kernel<<<grid, kColumnBlock, 0, stream>>>(rgb, width, height, gain, thresholds, out, row_bytes);
   return cudaGetLastError();
 }
 
