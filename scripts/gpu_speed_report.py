@@ -34,21 +34,24 @@ def main(out):
              f"`penumbra bench` at {s['width']}x{s['height']}, {s['spp_per_launch']} spp a launch, depth "
              f"{s['max_depth']}, MIS none, each scene's own light selection; median of {s['timed_launches']} "
              f"launches after {s['warmup_launches']} warm-up. **GPU ms**: CUDA events around the launch and the "
-             "accumulation (what the GPU spends on a sample of every pixel); **wall ms**: the host clock around "
-             "each `render()` call, over the timed launches (what an interactive viewer waits per frame). Every "
-             "pixel of the image is counted.", "",
-             "| scene | strategy | path | GPU ms a sample | wall ms a launch | Grays/s (path + shadow rays) |",
-             "| --- | --- | --- | ---: | ---: | ---: |"]
+             "accumulation (what the GPU spends on a sample of every pixel); **wall ms**: the host clock from the first "
+             "launch until the GPU finished the last, over the timed launches (launch set-up, queueing and waiting "
+             "included); **read-back ms**: after them, the film's sums (two 1080p images of doubles, 100 MB) copied "
+             "to the host and added there, once a `render()` call of the 50 launches. Every pixel of the image is "
+             "counted.", "",
+             "| scene | strategy | path | GPU ms a sample | wall ms a launch | read-back ms | Grays/s (path + shadow rays) |",
+             "| --- | --- | --- | ---: | ---: | ---: | ---: |"]
     rows = []
     for m, label in MODES:
         if m not in benches:
             continue
         for r in benches[m]["results"]:
             rows.append((r["scene"], r["strategy"], label, r["ms_per_launch"]["median"], r["wall_ms_per_launch"],
-                         r.get("rays_per_s", 0.0) / 1e9))
+                         r.get("readback_ms"), r.get("rays_per_s", 0.0) / 1e9))
     rows.sort(key=lambda x: (x[0], x[1]))
-    for sc, st, label, ms, wall, g in rows:
-        lines.append(f"| {sc} | {st} | {label} | {ms:.3f} | {wall:.3f} | {g:.2f} |")
+    for sc, st, label, ms, wall, rb, g in rows:
+        rb_cell = "-" if rb is None else f"{rb:.1f}"  # older bench JSON: wall included the read-back
+        lines.append(f"| {sc} | {st} | {label} | {ms:.3f} | {wall:.3f} | {rb_cell} | {g:.2f} |")
     probe_path = os.path.join(out, "probe.json")
     if os.path.exists(probe_path):
         p = load(probe_path)

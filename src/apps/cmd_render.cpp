@@ -90,6 +90,10 @@ void print_launch_stats(const RenderStats& st, double pixels) {
     std::fprintf(stderr, ", %.3g rays (%.2f Grays/s%s)", double(st.rays), double(st.rays) / (gpu_ms * 1e6),
                  st.devices.size() > 1 ? " per GPU" : "");
   std::fprintf(stderr, "\n");
+  if (st.launches_wall_ms > 0)
+    std::fprintf(stderr, "stats: wall (host clock): %.3f ms from the first launch until the GPU finished the last "
+                 "(%.3f ms a launch), then %.1f ms copying the film to the host\n",
+                 st.launches_wall_ms, st.launches_wall_ms / double(st.launches.size()), st.readback_ms);
 }
 
 int run_render(const RenderArgs& a) {

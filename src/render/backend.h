@@ -64,6 +64,11 @@ struct RenderStats {
   std::vector<std::array<int, 2>> nonfinite_pixels;  // (x, y), at most kMaxNonfinitePixels
   static constexpr size_t kMaxNonfinitePixels = 5;
   std::vector<DeviceTiming> devices;   // one per device of a split render; empty for one device
+  // GPU render() (host clock): from the first launch until the GPU finished
+  // the last, and then the film's sums copied out and added to the host film.
+  // 0 where not measured (the CPU; accumulate() alone).
+  double launches_wall_ms = 0;
+  double readback_ms = 0;
 };
 
 // One line for a user: how many samples were dropped and where, e.g.

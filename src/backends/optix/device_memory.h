@@ -107,6 +107,34 @@ class DeviceBuffer {
   size_t size_ = 0;
 };
 
+// Page-locked host memory (cudaMallocHost), which the GPU copies into at full
+// bus speed and asynchronously; pageable memory is staged through a driver
+// buffer at a fraction of it. Grows to the largest size asked for.
+class PinnedBuffer {
+ public:
+  PinnedBuffer() = default;
+  PinnedBuffer(const PinnedBuffer&) = delete;
+  PinnedBuffer& operator=(const PinnedBuffer&) = delete;
+  ~PinnedBuffer() { release(); }
+  void ensure(size_t bytes) {
+    if (ptr_ && size_ >= bytes) return;
+    release();
+    check_cuda(cudaMallocHost(&ptr_, bytes), "cudaMallocHost");
+    size_ = bytes;
+  }
+  void release() {
+    if (ptr_) cudaFreeHost(ptr_);  // never throws from a destructor
+    ptr_ = nullptr;
+    size_ = 0;
+  }
+  template <class T>
+  T* as() const { return static_cast<T*>(ptr_); }
+
+ private:
+  void* ptr_ = nullptr;
+  size_t size_ = 0;
+};
+
 // One of Scene::textures as a CUDA array and a texture object with the settings
 // core/texture.h describes: 8-bit texels read as normalized floats (sRGB decoded
 // by the texture unit before filtering for colour textures), float texels as

@@ -8,6 +8,7 @@
 #include "backends/optix/optix_backend.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -406,16 +407,41 @@ class OptixBackendImpl final : public OptixBackend {
     const int W = frame.camera.width, H = frame.camera.height;
     if (film.width() != W || film.height() != H) throw std::logic_error("film size differs from the camera's");
     reset(frame);
-    accumulate(frame, first_sample, count, progress);
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point start = Clock::now();
+    accumulate(frame, first_sample, count, progress);  // returns when the GPU has finished
+    const Clock::time_point launched = Clock::now();
     const size_t n = size_t(W) * size_t(H) * 3;
-    host_.resize(n);
-    PN_CUDA(cudaMemcpy(host_.data(), acc_sum_.as<void>(), n * sizeof(double), cudaMemcpyDeviceToHost));
-    double* sum = film.sum();
-    for (size_t i = 0; i < n; ++i) sum[i] += host_[i];
-    PN_CUDA(cudaMemcpy(host_.data(), acc_sum_sq_.as<void>(), n * sizeof(double), cudaMemcpyDeviceToHost));
-    double* sum_sq = film.sum_sq();
-    for (size_t i = 0; i < n; ++i) sum_sq[i] += host_[i];
+    add_to_host(acc_sum_, film.sum(), n);
+    add_to_host(acc_sum_sq_, film.sum_sq(), n);
     film.add_samples(count);
+    stats_.launches_wall_ms = std::chrono::duration<double, std::milli>(launched - start).count();
+    stats_.readback_ms = std::chrono::duration<double, std::milli>(Clock::now() - launched).count();
+  }
+
+  // dst[i] += src[i] for i < n (doubles): src copied out in chunks through two
+  // page-locked buffers, the copy of one chunk overlapping the host's sums of
+  // the one before. A 1080p film's two sums are 100 MB.
+  void add_to_host(const DeviceBuffer& src, double* dst, size_t n) {
+    constexpr size_t kChunk = size_t(1) << 20;  // doubles: 8 MiB a buffer
+    staging_.ensure(2 * kChunk * sizeof(double));
+    double* const buffers[2] = {staging_.as<double>(), staging_.as<double>() + kChunk};
+    const size_t chunks = (n + kChunk - 1) / kChunk;
+    auto copy = [&](size_t k) {  // chunk k into buffers[k % 2], its event recorded after it
+      const size_t len = std::min(kChunk, n - k * kChunk);
+      PN_CUDA(cudaMemcpyAsync(buffers[k & 1], src.as<double>() + k * kChunk, len * sizeof(double),
+                              cudaMemcpyDeviceToHost, stream_));
+      PN_CUDA(cudaEventRecord(copied_[k & 1], stream_));
+    };
+    if (chunks > 0) copy(0);
+    for (size_t k = 0; k < chunks; ++k) {
+      if (k + 1 < chunks) copy(k + 1);  // into the buffer whose sums finished in step k - 1
+      PN_CUDA(cudaEventSynchronize(copied_[k & 1]));
+      const double* from = buffers[k & 1];
+      double* to = dst + k * kChunk;
+      const size_t len = std::min(kChunk, n - k * kChunk);
+      for (size_t i = 0; i < len; ++i) to[i] += from[i];
+    }
   }
 
   // The denoiser's guides: one W x H launch of the guides' raygen program
@@ -490,6 +516,7 @@ class OptixBackendImpl final : public OptixBackend {
       PN_CUDA(cudaEventCreate(&s.traced));
       PN_CUDA(cudaEventCreate(&s.end));
     }
+    for (cudaEvent_t& e : copied_) PN_CUDA(cudaEventCreateWithFlags(&e, cudaEventDisableTiming));
     OptixDeviceContextOptions o = {};
     o.logCallbackFunction = &log_callback;
     o.logCallbackLevel = 2;  // errors
@@ -528,6 +555,9 @@ class OptixBackendImpl final : public OptixBackend {
       for (cudaEvent_t* e : {&s.start, &s.traced, &s.end})
         if (*e) cudaEventDestroy(*e), *e = nullptr;
     }
+    for (cudaEvent_t& e : copied_)
+      if (e) cudaEventDestroy(e), e = nullptr;
+    staging_.release();
     for (DeviceBuffer* b : {&params_, &counters_, &launch_sum_, &launch_sum_sq_, &acc_sum_, &acc_sum_sq_, &acc_bad_,
                             &restir_pixels_, &restir_a_, &restir_b_, &restir_history_pixels_, &restir_history_})
       b->release();
@@ -560,6 +590,8 @@ class OptixBackendImpl final : public OptixBackend {
   std::string gpu_name_, driver_;
   cudaStream_t stream_ = nullptr;
   Slot slots_[kSlots];
+  cudaEvent_t copied_[2] = {nullptr, nullptr};  // the film's read-back: chunk k % 2 copied out
+  PinnedBuffer staging_;                        // ... into these two halves
   OptixDeviceContext context_ = nullptr;
   Pipeline pipeline_;
   DeviceScene device_scene_{size_};  // the arrays base_params_.scene points at
@@ -575,7 +607,6 @@ class OptixBackendImpl final : public OptixBackend {
   uint64_t accumulated_ = 0;
   RenderStats stats_;
   SceneBuildStats build_stats_;
-  std::vector<double> host_;
 };
 
 }  // namespace
