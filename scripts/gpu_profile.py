@@ -8,8 +8,8 @@ speed report's profile; the GPU issue's "measured reason why not").
 
 Writes OUT/profile_SCENE.csv (ncu's raw page, as it printed it) and OUT/profile.md. Clocks are left as the GPU
 runs them (`--clock-control none`), so that kernel times are those of a render, not of base clocks. Every kernel
-of the bench's launches is profiled, replayed once per metric pass; the scene's set-up kernels (acceleration
-structures, film clears) are in the table too, divided by the launches like the rest, and are a small share.
+of the bench's launches is profiled, replayed once per metric pass; the scene's set-up kernels (OptiX's
+acceleration-structure builds) are listed under the table, outside a sample's total.
 Needs ncu on the GPU machine (CUDA's nsight-compute); `--summarize CSV...` only draws the tables from CSV files
 already made (no GPU).
 """
@@ -100,12 +100,23 @@ def summarize(launch_rows, launches):
     return out
 
 
+def is_setup(kernel):
+    """A scene's set-up kernel, run once a render and not a sample's: OptiX's acceleration-structure builds."""
+    return kernel.startswith("optixAccel")
+
+
 def table(scene, summary, launches):
+    setup = [(name, r, n) for name, r, n in summary if is_setup(name)]
+    summary = [(name, r, n) for name, r, n in summary if not is_setup(name)]
     total = sum(r["ms a sample"] or 0.0 for _, r, _ in summary)
     titles = [t for _, t, _ in METRICS]
     lines = [f"## {scene}: {total:.3f} ms of kernel time a sample ({launches} launches profiled)\n",
              "| kernel | launches a sample | share | " + " | ".join(titles) + " |",
              "| --- | ---: | ---: |" + " ---: |" * len(titles)]
+    tail = []
+    if setup:
+        tail = ["", "The scene's set-up, once a render and not in the total: " + ", ".join(
+            f"`{name}` x {n} ({(r['ms a sample'] or 0.0) * launches:.3f} ms)" for name, r, n in setup) + "."]
     for name, r, n in summary:
         cells = []
         for t in titles:
@@ -114,7 +125,7 @@ def table(scene, summary, launches):
                          else f"{v:.0f}")
         share = 100 * (r["ms a sample"] or 0.0) / total if total > 0 else 0.0
         lines.append(f"| `{name}` | {n / launches:.1f} | {share:.1f}% | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + tail) + "\n"
 
 
 def profile(args, scene):

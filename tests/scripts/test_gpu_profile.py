@@ -32,6 +32,8 @@ CSV = "\n".join([
     row(3, "void pn::(anonymous namespace)::trace_closest_kernel<1>(const pn::TraceRay *, unsigned int)", "1000000",
         "40", "48"),
 ])
+# The same two launches and the scene's acceleration-structure build, once.
+CSV_SETUP = CSV + "\n" + row(4, "optixAccelBuild", "500,000", "1", "96")
 
 
 def test_rows_are_the_launches_and_names_keep_template_arguments():
@@ -55,3 +57,13 @@ def test_times_are_summed_over_launches_and_rates_weighted_by_time():
     assert a["occupancy %"] is None  # a metric the CSV does not have
     md = gp.table("cornell-sphere", summary, 2)
     assert "4.000 ms of kernel time a sample" in md and "| `trace_closest_kernel<1>` | 1.0 | 50.0% |" in md
+
+
+def test_set_up_kernels_are_listed_apart_and_left_out_of_a_samples_total():
+    summary = gp.summarize(gp.parse_raw_csv(CSV_SETUP), launches=2)
+    assert [name for name, _, _ in summary][-1] == "optixAccelBuild"
+    md = gp.table("cornell-sphere", summary, 2)
+    # 4 ms a sample as without it, shares of that; the build once: 0.5 ms.
+    assert "4.000 ms of kernel time a sample" in md and "| `trace_closest_kernel<1>` | 1.0 | 50.0% |" in md
+    assert "| `optixAccelBuild`" not in md
+    assert "not in the total: `optixAccelBuild` x 1 (0.500 ms)." in md
