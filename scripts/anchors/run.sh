@@ -10,12 +10,22 @@ out=${1:-docs/results/anchors}
 shift || true
 opts=("$@")
 [[ ${#opts[@]} -gt 0 ]] || opts=(--spp 256 --width 160 --height 90 --seeds 8)
-if [[ -n $(git status --porcelain) ]]; then
-  echo "anchors: the checkout has uncommitted changes: the report must come from a clean commit" >&2
-  exit 1
+# The commit: the checkout's, which must be clean; where there is no git checkout (a copy of the tree on a GPU
+# machine), the one stamped into penumbra's Python module when it was built (a dirty build is refused).
+if git rev-parse --git-dir >/dev/null 2>&1; then
+  if [[ -n $(git status --porcelain) ]]; then
+    echo "anchors: the checkout has uncommitted changes: the report must come from a clean commit" >&2
+    exit 1
+  fi
+  commit=$(git rev-parse --short=12 HEAD)
+else
+  commit=$(python3 -c 'import penumbra; print(penumbra.build_info()["git_commit"])') || exit 77
+  if [[ $commit == *-dirty || $commit == unknown ]]; then
+    echo "anchors: penumbra's module was built from $commit: the report must come from a clean commit" >&2
+    exit 1
+  fi
 fi
 mkdir -p "$out"
-commit=$(git rev-parse --short=12 HEAD)
 {
   echo "# Anchors: penumbra against Mitsuba 3"
   echo
@@ -23,8 +33,9 @@ commit=$(git rev-parse --short=12 HEAD)
   echo "Mitsuba $(python3 -c 'import mitsuba; print(mitsuba.__version__)'). Each scene exported by"
   echo "\`scripts/anchors/mitsuba_anchor.py\` (its docstring says what is exported and how), rendered by both with the"
   echo "same size, depth and samples per pixel and independent seeds; pixel set: every pixel (the image mean) and"
-  echo "8x8-pixel tiles. Times are wall clock per image on this machine's CPU (both renderers on all its cores"
-  echo "where they use them), not a GPU comparison."
+  echo "8x8-pixel tiles. Times are wall clock per image, the median over seeds, each scene built before the clock"
+  echo "starts (on the CPU both renderers on all its cores; on a GPU, Mitsuba's cuda_ad_rgb against penumbra's"
+  echo "optix backend)."
   echo
 } > "$out/README.md"
 : > "$out/anchor.md"
