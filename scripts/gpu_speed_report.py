@@ -37,8 +37,8 @@ def main(out):
              "accumulation (what the GPU spends on a sample of every pixel); **wall ms**: the host clock from the first "
              "launch until the GPU finished the last, over the timed launches (launch set-up, queueing and waiting "
              "included); **read-back ms**: after them, the film's sums (two 1080p images of doubles, 100 MB) copied "
-             "to the host and added there, once a `render()` call of the 50 launches. Every pixel of the image is "
-             "counted.", "",
+             f"to the host and added there, once a `render()` call of the {s['timed_launches']} launches. Every pixel "
+             "of the image is counted.", "",
              "| scene | strategy | path | GPU ms a sample | wall ms a launch | read-back ms | Grays/s (path + shadow rays) |",
              "| --- | --- | --- | ---: | ---: | ---: | ---: |"]
     rows = []
