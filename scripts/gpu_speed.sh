@@ -7,7 +7,8 @@
 #
 # Scenes that need models from outside the repository (sponza) are left out where penumbra does not list them.
 # The report (OUT_DIR/README.md) is written by scripts/gpu_speed_report.py from the JSON files beside it; where ncu
-# is installed, scripts/gpu_profile.py adds the kernels' times (profile.md).
+# is installed, scripts/gpu_profile.py adds the kernels' times (profile.md); where Mitsuba 3 and penumbra's Python
+# module import, the Mitsuba anchor adds Mitsuba's time on the same GPU (anchor.md).
 set -euo pipefail
 penumbra=${1:-build/penumbra}
 out=${2:-docs/results/gpu-speed}
@@ -32,6 +33,15 @@ echo "== probe" >&2
 probe_status=0
 "$penumbra" bench --backend optix --scenes "$scenes" --probe --json "$out/probe.json" >&2 || probe_status=$?
 if [[ $probe_status != 0 && $probe_status != 3 ]]; then exit "$probe_status"; fi
+# Mitsuba 3 on the same GPU, where its Python package and penumbra's module import here: the anchor
+# (scripts/anchors/mitsuba_anchor.py) on cornell-sphere at 1920x1080, both renderers' images compared and their
+# times a sample side by side (anchor.md, which the report shows). Its verdict does not stop the report.
+rm -f "$out/anchor.md"
+if python3 -c "import mitsuba, penumbra" >/dev/null 2>&1; then
+  echo "== Mitsuba 3 (cuda_ad_rgb) and penumbra on cornell-sphere" >&2
+  python3 "$here/anchors/mitsuba_anchor.py" cornell-sphere --variant cuda_ad_rgb --backend optix --width 1920 \
+    --height 1080 --spp 64 --seeds 3 --out "$out" >&2 || echo "gpu_speed: the anchor's images disagree or it failed" >&2
+fi
 # Per kernel (Nsight Compute), where ncu is installed: profile.md, which the report links.
 if command -v ncu >/dev/null 2>&1; then
   echo "== profile" >&2

@@ -81,6 +81,15 @@ def main(out):
                 f = r["surface_rays"]
                 lines.append(f"| {r['scene']} | {f['self_hits_optix']:,} | {f['self_hits_cuda']:,} | "
                              f"{f['closest_ties']:,} | {f['closest_other']:,} | {f['shadow_mismatched']:,} |")
+    anchor_path = os.path.join(out, "anchor.md")
+    if os.path.exists(anchor_path):
+        with open(anchor_path) as f:
+            anchor = [l.rstrip("\n") for l in f if l.strip()]
+        lines += ["", "## Against Mitsuba 3 on the same GPU", "",
+                  "`scripts/anchors/mitsuba_anchor.py` in the same run: the scene exported to Mitsuba 3, rendered "
+                  "there (`cuda_ad_rgb`) and by penumbra's Python module (the default GPU path), each scene built "
+                  "before the clock; the images compared within their noise, and the wall time of each render call "
+                  "with the image's copy into numpy, the median over seeds.", ""] + anchor
     lines += ["", "Files: `bench_<path>.json` (every launch's spread, trace and accumulation times, ray counts, "
               "scene builds), `probe.json` (both trace stages' times and their agreement on every ray).", ""]
     if os.path.exists(os.path.join(out, "profile.md")):

@@ -37,3 +37,15 @@ def test_rows_give_gpu_wall_and_read_back_times(tmp_path):
     assert "| cornell-sphere | area | wavefront, cuda traversal (default) | 1.654 | 1.657 | 18.0 | 4.06 |" in md
     assert "| cornell-sphere | area | megakernel (OptiX) | 4.929 | 5.568 | - | 1.36 |" in md
     assert "wavefront, OptiX trace stage" not in md  # no bench of that path: no row
+
+
+def test_the_mitsuba_anchor_line_is_shown_where_the_run_made_one(tmp_path):
+    with open(tmp_path / "bench_wavefront-cuda.json", "w") as f:
+        json.dump(bench([result("cornell-sphere", "area", 1.654, 1.657, 4.06e9, readback_ms=18.04)]), f)
+    gsr.main(str(tmp_path))
+    assert "Mitsuba" not in (tmp_path / "README.md").read_text()
+    line = "- cornell-sphere 1920x1080, 64 spp x 3 seeds, max depth 8: ... ns per sample 1.0 vs 3.5"
+    (tmp_path / "anchor.md").write_text(line + "\n")
+    gsr.main(str(tmp_path))
+    md = (tmp_path / "README.md").read_text()
+    assert "## Against Mitsuba 3 on the same GPU" in md and line in md
