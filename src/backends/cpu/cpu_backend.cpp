@@ -481,9 +481,9 @@ class CpuBackend final : public Backend {
     const IntegratorSettings& s = frame.integrator;
     WavefrontView& w = hw.w;
     w.restir = restir;
-    const bool environment = view_.selection.infinite_light >= 0;
-    w.shared_slots = light_samples_per_vertex(s, environment) > 1 ? 1u : 0u;
-    const uint32_t capacity = w.capacity, paths = wave_paths(capacity, s, environment);
+    const WaveShape shape = wave_shape(w.capacity, s, view_.selection.infinite_light >= 0);
+    w.shared_slots = shape.shared_slots;
+    const uint32_t capacity = w.capacity, paths = shape.paths;
     Tracer tracer{this};
     for (uint64_t k0 = 0; k0 < items; k0 += paths) {
       hw.wave = WaveSpec{k0, uint32_t(std::min<uint64_t>(paths, items - k0)), first_sample, pixels, frame.seed};

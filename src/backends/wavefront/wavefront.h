@@ -271,11 +271,20 @@ struct WavefrontView {
   uint32_t shared_slots = 0;
 };
 
-// The paths a wave of a pool of `capacity` holds: fewer than the pool where a vertex makes several shadow queries
-// (slc), so that the shadow queue, as long as the pool, holds every query of a bounce. `environment`: the scene
-// has an environment light (SceneView::selection.infinite_light >= 0), which slc samples besides its cut.
-PN_FN uint32_t wave_paths(uint32_t capacity, const IntegratorSettings& s, bool environment) {
-  return pn_max(capacity / light_samples_per_vertex(s, environment), 1u);
+// How a wave is laid out for these settings: the paths a wave of a pool of `capacity` holds, fewer than the pool
+// where a vertex makes several shadow queries (slc), so that the shadow queue, as long as the pool, holds every
+// query of a bounce; and whether a path's queries share its slots (WavefrontView::shared_slots). `environment`:
+// the scene has an environment light (SceneView::selection.infinite_light >= 0), which slc samples besides its cut.
+struct WaveShape {
+  uint32_t paths = 0;
+  uint32_t shared_slots = 0;
+};
+PN_FN WaveShape wave_shape(uint32_t capacity, const IntegratorSettings& s, bool environment) {
+  const uint32_t per_vertex = light_samples_per_vertex(s, environment);
+  WaveShape w;
+  w.paths = pn_max(capacity / per_vertex, 1u);
+  w.shared_slots = per_vertex > 1 ? 1u : 0u;
+  return w;
 }
 
 // Bytes of one path's state and queue entries: what the pool costs per slot.

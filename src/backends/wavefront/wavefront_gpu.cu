@@ -675,9 +675,9 @@ bool WavefrontGpu::run(const FrameSpec& frame, const SceneView& device_scene, ui
   WaveParams p;
   p.view = view_;
   p.view.restir = restir;
-  const bool environment = device_scene.selection.infinite_light >= 0;
-  p.view.shared_slots = light_samples_per_vertex(frame.integrator, environment) > 1 ? 1u : 0u;
-  const uint32_t paths = wave_paths(capacity_, frame.integrator, environment);
+  const WaveShape shape = wave_shape(capacity_, frame.integrator, device_scene.selection.infinite_light >= 0);
+  p.view.shared_slots = shape.shared_slots;
+  const uint32_t paths = shape.paths;
   p.scene = device_scene;
   p.camera = frame.camera;
   p.integrator = frame.integrator;
