@@ -7,6 +7,7 @@ scenes and sweeps, then writes its reports.
     thesis, lab, many_lights, denoise   one part each: figures, report, checks
     report        what the reports share (first lines, formats, figure helpers)
     metrics       the ratios and fits the reports print
+    compare       two outputs' runs number for number (all but times)
     common        log lines, RunFailed, atomic writes
     cli           the command line (python3 scripts/study.py, python3 -m study)
 """

@@ -86,6 +86,9 @@ def main(prog=None):
                     help="ray: CPUs per task (num_cpus; with the CPU backend, its render threads)")
     ap.add_argument("--ray-cpus", type=int,
                     help="ray without --address: the CPUs the Ray instance on this machine may use (default: all)")
+    ap.add_argument("--ray-gpus", type=int,
+                    help="ray without --address: the GPUs the Ray instance on this machine may use (default: all; "
+                         "the first N of CUDA_VISIBLE_DEVICES); scripts/scale_out_study.py varies it")
     ap.add_argument("--retries", type=int, default=3,
                     help="ray: how often a task whose worker or machine is lost runs again (Ray's max_retries)")
     ap.add_argument("--part", choices=["thesis", "lab", "many-lights", "denoise", "all"], default="all",
@@ -122,6 +125,13 @@ def main(prog=None):
         if args.scene and not set(args.scene) & set(MANY_PARAM_SCENES):
             sys.exit("study: --only params runs on " + " and ".join(MANY_PARAM_SCENES) + ", not on "
                      + ", ".join(args.scene))
+    for name in ("ray_cpus", "ray_gpus"):
+        value, flag = getattr(args, name), "--" + name.replace("_", "-")
+        if value is not None and value < (1 if name == "ray_cpus" else 0):
+            sys.exit(f"study: {flag} {value}: at least {1 if name == 'ray_cpus' else 0}")
+        if value is not None and args.address:
+            sys.exit(f"study: {flag} sizes the Ray instance this command starts; a cluster joined with --address "
+                     "has the resources its nodes declared (ray start --num-gpus)")
     if (args.engine == "python" or args.executor == "ray") and not args.report_only:
         try:
             importlib.import_module("penumbra")

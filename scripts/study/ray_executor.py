@@ -208,7 +208,7 @@ def execute(args, runs, converge_options, write_atomic):
         if args.address:
             ray.init(address=args.address, **kw)
         else:
-            ray.init(num_cpus=args.ray_cpus, **kw)
+            ray.init(num_cpus=args.ray_cpus, num_gpus=args.ray_gpus, **kw)
         ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers need not find this file
         gpus = ray.cluster_resources().get("GPU", 0)
         if backend == "auto":

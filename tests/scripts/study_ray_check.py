@@ -13,8 +13,6 @@ by the same command from the tasks it had finished.
 Exit status 77 (CTest's skip) where Ray is not installed.
 """
 import argparse
-import csv
-import json
 import os
 import re
 import shutil
@@ -22,66 +20,8 @@ import signal
 import subprocess
 import sys
 
-# Values that are measured times (or derived from them), and the bookkeeping
-# that differs between two runs by design.
-TIMES = {"time_ms", "ms_per_spp", "ms_to_threshold", "efficiency", "efficiency_nolight", "seconds",
-         "estimated_seconds"}
-BOOKKEEPING = {"device", "executor"}
-REFERENCE_BOOKKEEPING = {"cached", "seconds", "file"}
-
-
-def without_times(x):
-    if isinstance(x, dict):
-        return {k: without_times(v) for k, v in x.items() if k not in TIMES}
-    if isinstance(x, list):
-        return [without_times(v) for v in x]
-    return x
-
-
-def summary_numbers(path):
-    with open(path) as f:
-        s = json.load(f)
-    for k in BOOKKEEPING:
-        s.pop(k, None)
-    s["reference"]["key"] = os.path.basename(s["reference"]["file"])  # the cache key; the folder differs
-    for k in REFERENCE_BOOKKEEPING:
-        s["reference"].pop(k)
-    return without_times(s)
-
-
-def csv_numbers(path):
-    with open(path) as f:
-        return [{k: v for k, v in row.items() if k != "time_ms"} for row in csv.DictReader(f)]
-
-
-def compare_runs(local, ray):
-    """Differences between two study outputs' runs/ (thesis part), as lines."""
-    problems = []
-    names = sorted(os.listdir(os.path.join(ray, "runs")))
-    if not names:
-        return ["the Ray study wrote no runs"]
-    for name in names:
-        a, b = os.path.join(local, "runs", name), os.path.join(ray, "runs", name)
-        if not os.path.isdir(a):
-            problems.append(f"{name}: not in the local study")
-            continue
-        if sorted(os.listdir(a)) != sorted(os.listdir(b)):
-            problems.append(f"{name}: files {sorted(os.listdir(a))} != {sorted(os.listdir(b))}")
-            continue
-        sa, sb = summary_numbers(os.path.join(a, "summary.json")), summary_numbers(os.path.join(b, "summary.json"))
-        for k in sorted(set(sa) | set(sb)):
-            if sa.get(k) != sb.get(k):
-                problems.append(f"{name}: summary.json {k}: {str(sa.get(k))[:120]} != {str(sb.get(k))[:120]}")
-        if csv_numbers(os.path.join(a, "measurements.csv")) != csv_numbers(os.path.join(b, "measurements.csv")):
-            problems.append(f"{name}: measurements.csv differs")
-        for f in os.listdir(a):  # crops (float32 images), PNGs: byte for byte
-            if f.endswith((".npy", ".png")):
-                with open(os.path.join(a, f), "rb") as x, open(os.path.join(b, f), "rb") as y:
-                    if x.read() != y.read():
-                        problems.append(f"{name}: {f} differs")
-    if len(names) != len([n for n in os.listdir(os.path.join(local, "runs"))]):
-        problems.append(f"runs: {sorted(os.listdir(os.path.join(local, 'runs')))} != {names}")
-    return problems
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
+from study.compare import compare_runs  # noqa: E402
 
 
 def main():
