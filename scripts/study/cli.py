@@ -112,6 +112,10 @@ def main(prog=None):
                     help="draw the report from the runs already in --out (e.g. made on a GPU machine without matplotlib)")
     ap.add_argument("--no-report", action="store_true", help="run the experiments only (implies --keep-runs)")
     ap.add_argument("--yes", action="store_true", help="run even when the estimate on the CPU is more than an hour")
+    ap.add_argument("--no-estimate", action="store_true",
+                    help="local executor: start without estimating every run first (a penumbra process and a "
+                         "measurement each; no total is printed); each run prints its own estimate and, on the CPU, "
+                         "stops past an hour without --yes")
     ap.add_argument("--force", action="store_true", help="overwrite a report folder that is committed to git")
     args = ap.parse_args()
     if args.no_report:

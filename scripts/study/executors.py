@@ -87,12 +87,25 @@ def estimate(args, r):
 
 def plan(args, runs):
     """Estimates every run before any starts; leaves out the optional groups that
-    cannot run here; stops when the CPU would take over an hour without --yes."""
-    log(f"study: estimating {len(runs)} runs on --backend {args.backend} ...")
-    total, backend, dropped = 0.0, args.backend, set()
+    cannot run here; stops when the CPU would take over an hour without --yes.
+    With --no-estimate only the first run of each optional group is tried (its
+    estimate loads the scene); each run still prints its own estimate, and on
+    the CPU refuses to run past an hour without --yes."""
+    args.estimated = not args.no_estimate
+    if not args.estimated:
+        groups = sorted({r.group for r in runs if r.group is not None})
+        log(f"study: {len(runs)} runs, not estimated beforehand (--no-estimate); each prints its own estimate"
+            + (f"; trying the optional {', '.join(groups)} first" if groups else ""))
+    else:
+        log(f"study: estimating {len(runs)} runs on --backend {args.backend} ...")
+    total, backend, dropped, tried = 0.0, args.backend, set(), set()
     for r in runs:
         if r.group in dropped:
             continue
+        if not args.estimated:
+            if r.group is None or r.group in tried:
+                continue
+            tried.add(r.group)
         try:
             seconds, backend = estimate(args, r)
         except RunFailed as e:
@@ -102,6 +115,8 @@ def plan(args, runs):
             dropped.add(r.group)
             continue
         total += seconds
+    if not args.estimated:
+        return [r for r in runs if r.group not in dropped]
     # Groups dropped midway contributed to the total; a slight overestimate is harmless.
     log(f"study: estimated run time {format_seconds(total)} on the {backend} backend")
     if backend == "cpu" and total > CONFIRM_SECONDS and not args.yes:
@@ -143,6 +158,12 @@ def run_on_ray(args, planned):
     return ray_executor.execute(args, runs, lambda a, ray_run: converge_options(a, ray_run.run), write_atomic)
 
 
+def confirmed(args):
+    """Whether a run may take over an hour on the CPU without asking: the study's own estimate of every run was
+    accepted, or --yes was given."""
+    return args.yes or getattr(args, "estimated", False)
+
+
 def converge(args, r):
     """Runs one experiment (unless --report-only, or done by the Ray executor) and returns its summary."""
     out = run_dir(args, r)
@@ -151,11 +172,11 @@ def converge(args, r):
     if not args.report_only and args.executor == "local":
         if args.engine == "python":
             log(f"study: penumbra.converge({r.scene!r}, out={out!r}, {r.cfg}, overrides={list(r.sets)})")
-            python_converge(args, r, out=out, verbose=True, yes=True)  # the study's own estimate was accepted
+            python_converge(args, r, out=out, verbose=True, yes=confirmed(args))
         else:
-            cmd = converge_cmd(args, r)
+            cmd = converge_cmd(args, r) + (["--yes"] if confirmed(args) else [])
             log("study: " + " ".join(cmd))
-            run_cmd(cmd + ["--yes"])
+            run_cmd(cmd)
     return load_summary(out, r.name)
 
 
