@@ -136,6 +136,13 @@ const std::vector<GpuTuningKey> kKeys = {
        return "";
      },
      [](const GpuTuning& t) { return json(double(t.bvh.triangle_cost)); }},
+    {"cuda_reinsert", kBool,
+     "the cuda traversal's BVHs optimized by reinsertion after the build (Bittner et al. 2013): fewer node visits, "
+     "a longer build",
+     [](GpuTuning& t, const std::string& s) -> std::string {
+       return boolean(s, &t.bvh.reinsertion) ? "" : kMustBool;
+     },
+     [](const GpuTuning& t) { return json(t.bvh.reinsertion); }},
     {"cuda_loop", "auto, while or ifif",
      "the cuda traversal's loop: auto is if-if where the scene's rays visit at least 24 nodes, else while-while",
      PN_ENUM_KEY(CudaLoop, cuda_loop, kLoopNames)},

@@ -19,6 +19,7 @@ struct BvhBuildOptions {
   bool spatial_splits = true;  // in the meshes' trees (cuda_splits)
   uint32_t leaf_size = 8;      // most triangle references a leaf, 1..kMaxLeafSize (cuda_leaf)
   float triangle_cost = 1.f;   // the SAH's cost of a triangle test, a node visit's being 1 (cuda_sah_tri)
+  bool reinsertion = false;    // each tree optimized by reinsertion after the build (cuda_reinsert)
 };
 
 // A queue traced in the order of a key where the scene's rays are long (Auto), always (Ordered) or never (Queue).

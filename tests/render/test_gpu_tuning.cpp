@@ -66,6 +66,7 @@ TEST(GpuTuning, EveryKeyParsesAGoodValueAndNamesItselfForABadOne) {
       {"cuda_leaf", {"4", "17"}},
       {"cuda_splits", {"false", "no"}},
       {"cuda_sah_tri", {"2.5", "nan"}},
+      {"cuda_reinsert", {"true", "maybe"}},
       {"cuda_loop", {"ifif", "sometimes"}},
       {"cuda_box", {"fma", "FMA"}},
       {"cuda_flat", {"0", "auto"}},

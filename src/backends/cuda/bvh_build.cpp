@@ -12,6 +12,7 @@
 
 #include <embree3/rtcore.h>
 
+#include "backends/cuda/bvh_optimize.h"
 #include "core/geometry.h"
 
 namespace pn {
@@ -93,9 +94,9 @@ void split_triangle(const RTCBuildPrimitive* prim, unsigned int dim, float pos, 
   *right = {rlo.x, rlo.y, rlo.z, 0.f, rhi.x, rhi.y, rhi.z, 0.f};
 }
 
-void set_box(float* xy, float* z, const RTCBounds& b) {
-  xy[0] = b.lower_x, xy[1] = b.upper_x, xy[2] = b.lower_y, xy[3] = b.upper_y;
-  z[0] = b.lower_z, z[1] = b.upper_z;
+void set_box(float* xy, float* z, const BuildTree::Node& b) {
+  xy[0] = b.lo[0], xy[1] = b.hi[0], xy[2] = b.lo[1], xy[3] = b.hi[1];
+  z[0] = b.lo[2], z[1] = b.hi[2];
 }
 
 class Builder {
@@ -113,7 +114,7 @@ class Builder {
   // inner nodes on the longest path.
   template <class Leaf>
   int32_t build(std::vector<RTCBuildPrimitive>& prims, uint32_t max_leaf, BvhHost& out, uint32_t* depth,
-                const Leaf& leaf, const TriangleMesh* mesh = nullptr, float triangle_cost = 1.f) {
+                const Leaf& leaf, bool reinsertion, const TriangleMesh* mesh = nullptr, float triangle_cost = 1.f) {
     RTCBVH bvh = rtcNewBVH(device_);
     RTCBuildArguments a = rtcDefaultBuildArguments();
     const size_t count = prims.size();
@@ -144,28 +145,73 @@ class Builder {
       throw std::runtime_error("cuda traversal: Embree's rtcBuildBVH failed (error " +
                                std::to_string(rtcGetDeviceError(device_)) + ")");
     }
-    *depth = 0;
-    const int32_t ref = flatten(root, max_leaf, out, 0, depth, leaf);
+    BuildTree tree;
+    try {
+      add_node(root, nullptr, -1, max_leaf, tree);  // the builder's memory is freed with the RTCBVH
+    } catch (...) {
+      rtcReleaseBVH(bvh);
+      throw;
+    }
     rtcReleaseBVH(bvh);
-    return ref;
+    tree.root = 0;
+    if (reinsertion && !tree.nodes[0].leaf()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const uint32_t built_depth = tree.depth();
+      BuildTree built = tree;
+      const ReinsertionStats r = optimize_by_reinsertion(tree);
+      // A deeper tree than the traversal's stack allows for two levels is not worth its gain: the builder's stays.
+      if (tree.depth() > std::max(built_depth, kBvhStackSize / 2)) tree = std::move(built);
+      else out.stats.reinserted += uint64_t(r.reinserted);
+      out.stats.reinsertion_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    }
+    *depth = 0;
+    return flatten(tree, tree.root, out, 0, depth, leaf);
   }
 
  private:
-  template <class Leaf>
-  int32_t flatten(const TmpNode* n, uint32_t max_leaf, BvhHost& out, uint32_t d, uint32_t* depth, const Leaf& leaf) {
+  // The builder's node `n` (its box `b`: the parent's bounds of it; none for the root) and its subtree, appended.
+  static int32_t add_node(const TmpNode* n, const RTCBounds* b, int32_t parent, uint32_t max_leaf, BuildTree& t) {
     if (!n) throw std::runtime_error("cuda traversal: Embree's builder made a node that is not binary");
+    const int32_t index = int32_t(t.nodes.size());
+    t.nodes.emplace_back();
+    if (b) {
+      BuildTree::Node& node = t.nodes.back();
+      node.lo[0] = b->lower_x, node.lo[1] = b->lower_y, node.lo[2] = b->lower_z;
+      node.hi[0] = b->upper_x, node.hi[1] = b->upper_y, node.hi[2] = b->upper_z;
+    }
+    t.nodes.back().parent = parent;
     if (n->leaf) {
       if (n->count == 0 || n->count > max_leaf) throw std::runtime_error("cuda traversal: a leaf of bad size");
-      return leaf(n->prims, n->count);
+      t.nodes.back().first = uint32_t(t.prims.size());
+      t.nodes.back().count = n->count;
+      t.prims.insert(t.prims.end(), n->prims, n->prims + n->count);
+      return index;
     }
+    const int32_t c0 = add_node(n->child[0], &n->bounds[0], index, max_leaf, t);
+    const int32_t c1 = add_node(n->child[1], &n->bounds[1], index, max_leaf, t);
+    t.nodes[size_t(index)].child[0] = c0;
+    t.nodes[size_t(index)].child[1] = c1;
+    if (!b) {  // the root's box: its children's
+      BuildTree::Node& r = t.nodes[size_t(index)];
+      const BuildTree::Node &a = t.nodes[size_t(c0)], &z = t.nodes[size_t(c1)];
+      for (int k = 0; k < 3; ++k) r.lo[k] = std::min(a.lo[k], z.lo[k]), r.hi[k] = std::max(a.hi[k], z.hi[k]);
+    }
+    return index;
+  }
+
+  // Depth first, a node's first child right after it.
+  template <class Leaf>
+  static int32_t flatten(const BuildTree& t, int32_t i, BvhHost& out, uint32_t d, uint32_t* depth, const Leaf& leaf) {
+    const BuildTree::Node& n = t.nodes[size_t(i)];
+    if (n.leaf()) return leaf(t.prims.data() + n.first, n.count);
     *depth = std::max(*depth, d + 1);
     const int32_t index = int32_t(out.nodes.size());
     out.nodes.emplace_back();
     BvhNode& node = out.nodes.back();
-    set_box(node.c0, node.z, n->bounds[0]);
-    set_box(node.c1, node.z + 2, n->bounds[1]);
-    const int32_t c0 = flatten(n->child[0], max_leaf, out, d + 1, depth, leaf);
-    const int32_t c1 = flatten(n->child[1], max_leaf, out, d + 1, depth, leaf);
+    set_box(node.c0, node.z, t.nodes[size_t(n.child[0])]);
+    set_box(node.c1, node.z + 2, t.nodes[size_t(n.child[1])]);
+    const int32_t c0 = flatten(t, n.child[0], out, d + 1, depth, leaf);
+    const int32_t c1 = flatten(t, n.child[1], out, d + 1, depth, leaf);
     out.nodes[size_t(index)].child[0] = c0;  // `node` may have moved
     out.nodes[size_t(index)].child[1] = c1;
     return index;
@@ -288,6 +334,7 @@ void build_top_level(const Scene& scene, BvhHost& out, Builder& builder);
 BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   BvhHost out;
+  out.options = options;
   Builder builder;
 
   // ---- Bottom level: one BVH per placed, non-empty mesh ----
@@ -329,7 +376,7 @@ BvhHost build_bvh(const Scene& scene, const BvhBuildOptions& options) {
       }
       ++leaves;
       return bvh_leaf_ref(first, count);
-    }, splits ? &m : nullptr, options.triangle_cost);
+    }, options.reinsertion, splits ? &m : nullptr, options.triangle_cost);
     out.stats.mesh_triangles += m.indices.size();
     mesh_built[mi] = true;
     ++out.stats.meshes;
@@ -415,7 +462,7 @@ void build_top_level(const Scene& scene, BvhHost& out, Builder& builder) {
     out.root = builder.build(prims, 1, out, &out.stats.top_depth, [&](const uint32_t* ids, uint32_t count) {
       (void)count;
       return bvh_leaf_ref(ids[0], 1);
-    });
+    }, out.options.reinsertion);
   }
   if (out.stats.top_depth + out.stats.max_mesh_depth > kBvhStackSize)
     throw std::runtime_error(scene.source + ": the cuda traversal's BVH is " +

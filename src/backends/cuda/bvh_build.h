@@ -1,6 +1,7 @@
 // The cuda traversal's BVH, built on the host: Embree 3's SAH builder
 // (rtcBuildBVH, RTC_BUILD_QUALITY_HIGH, spatial splits in the meshes' trees)
-// makes a binary tree per mesh and one over the instances and spheres; they
+// makes a binary tree per mesh and one over the instances and spheres (each
+// optimized by reinsertion with --tune cuda_reinsert, bvh_optimize.h); they
 // are flattened into bvh_layout.h's arrays. The same arrays are traced on the
 // CPU by the tests and uploaded as they are for the GPU (trace_kernels.h).
 #pragma once
@@ -28,6 +29,8 @@ struct BvhStats {
   // their surface areas (Cauchy-Crofton), so this counts the visits of a line that nothing stops (each visit of
   // an inner node tests two boxes): how long a ray's traversal is in this scene.
   double sah_visits_per_ray = 0;
+  uint64_t reinserted = 0;    // subtrees put back by the reinsertion optimization (cuda_reinsert), both levels
+  double reinsertion_ms = 0;  // host clock, part of build_ms
 };
 
 struct BvhHost {
@@ -38,6 +41,7 @@ struct BvhHost {
   std::vector<float> spheres;
   int32_t root = 0;
   bool any_alpha_masked = false;
+  BvhBuildOptions options;  // as built: rebuild_bvh_top builds the top level with them again
   BvhStats stats;
   // What the top level is built over: nodes[0, bottom_nodes) are the meshes' trees; by Scene::meshes index, each
   // mesh's root, whether it has a tree, and its box in its own space.
