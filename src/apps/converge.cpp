@@ -475,21 +475,13 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   }
   // Image means, over all pixels and over those that see no light (the bias of
   // a method shows in them, within the noise of both).
-  auto image_mean = [&](const std::vector<float>& img, bool nolight) {
-    double m = 0;
-    size_t n = 0;
-    for (size_t p = 0; p < mask.size(); ++p)
-      if (!nolight || mask[p]) {
-        m += double(img[3 * p]) + img[3 * p + 1] + img[3 * p + 2];
-        n += 3;
-      }
-    return n ? m / double(n) : 0.0;
-  };
+  // Image means, over all pixels and over those that see no light (the bias of
+  // a method shows in them, within the noise of both): render/metrics.h's image_mean.
   summary["light_selection"] = light_selection_label(scene.integrator().light_selection, scene.integrator().restir);
   summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)},
                           {"light_selection", light_selection_name(setup.ref_selection)},
-                          {"mean", image_mean(ref, false)},
-                          {"mean_nolight", image_mean(ref, true)}, {"file", ref_path},
+                          {"mean", image_mean(ref)},
+                          {"mean_nolight", image_mean(ref, &mask)}, {"file", ref_path},
                           {"cached", cached}, {"seconds", ref_seconds}, {"seed", kRefSeed},
                           {"chunk_spp", plan.chunk_spp},
                           {"rmse_floor", floor_all}, {"rmse_floor_nolight", floor_nolight}};
@@ -519,6 +511,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   // Two films for every render below, zeroed before each: a new 1080p film costs its 100 MB's allocation and first
   // touch (40 ms on the development machine) where zeroing one takes 11.
   Film film(W, H), before(W, H);
+  std::vector<float> img;  // a render's mean
   for (const Technique& tq : techniques) {
     const std::string name = technique_name(tq);
     FrameSpec f = frame_spec(scene);
@@ -535,12 +528,12 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         film.reset(W, H);
         double t = timed_render(*backend, f, film, 0, uint32_t(spp), a.progress);
         count_nonfinite(nonfinite_renders);
-        auto img = film.mean();
-        ErrorMetrics all = error_metrics(img, ref), nolight = error_metrics(img, ref, &mask);
+        const RenderMeasures measured = measure_render(film.sum(), film.samples(), ref, mask, &img);
+        const ErrorMetrics &all = measured.all, &nolight = measured.masked;
         result.measurements.push_back(
             {name, spp, seed, t, all.rmse, nolight.rmse, all.relmse, nolight.relmse});
-        mean += image_mean(img, false) / a.seeds;
-        mean_nolight += image_mean(img, true) / a.seeds;
+        mean += measured.mean / a.seeds;
+        mean_nolight += measured.mean_masked / a.seeds;
         rm += all.rmse / a.seeds;
         rmn += nolight.rmse / a.seeds;
         mse += all.mse / a.seeds;

@@ -15,6 +15,8 @@
 #include "render/backend.h"
 #include "apps/converge.h"
 #include "backends/make_backend.h"
+#include "core/rng.h"
+#include "render/film.h"
 #include "render/metrics.h"
 #include "scene/scene.h"
 
@@ -75,6 +77,44 @@ TEST(ErrorMetrics, RelMseDividesByTheReferenceSquaredPlusOneHundredth) {
   std::vector<float> ref = {0.f, 2.f, 10.f}, test = {1.f, 3.f, 11.f};
   EXPECT_NEAR(error_metrics(test, ref).relmse, (1 / 0.01 + 1 / 4.01 + 1 / 100.01) / 3, 1e-12);
   EXPECT_NEAR(error_metrics(test, ref).rmse, 1.0, 1e-12);
+}
+
+// measure_render's one pass gives the bits of Film::mean, error_metrics (all pixels, masked) and image_mean.
+TEST(ErrorMetrics, OnePassMeasuresAreTheSeparateOnesBitForBit) {
+  const int W = 37, H = 23;
+  Rng rng(1, 2, 3);
+  Film film(W, H);
+  std::vector<float> ref(size_t(W) * H * 3);
+  std::vector<uint8_t> mask(size_t(W) * H);
+  for (size_t i = 0; i < ref.size(); ++i) {
+    film.sum()[i] = 7.0 * double(rng.uniform()) * (i % 5 == 0 ? 100.0 : 1.0);
+    ref[i] = rng.uniform() * (i % 7 == 0 ? 30.f : 1.f);
+  }
+  for (uint8_t& m : mask) m = rng.uniform() < 0.8f ? 1 : 0;
+  film.add_samples(7);
+  std::vector<float> image;
+  const RenderMeasures r = measure_render(film.sum(), film.samples(), ref, mask, &image);
+  const std::vector<float> mean = film.mean();
+  EXPECT_EQ(image, mean);
+  const ErrorMetrics all = error_metrics(mean, ref), masked = error_metrics(mean, ref, &mask);
+  EXPECT_EQ(r.all.mse, all.mse);
+  EXPECT_EQ(r.all.rmse, all.rmse);
+  EXPECT_EQ(r.all.relmse, all.relmse);
+  EXPECT_EQ(r.all.pixels, all.pixels);
+  EXPECT_EQ(r.masked.mse, masked.mse);
+  EXPECT_EQ(r.masked.rmse, masked.rmse);
+  EXPECT_EQ(r.masked.relmse, masked.relmse);
+  EXPECT_EQ(r.masked.pixels, masked.pixels);
+  EXPECT_LT(masked.pixels, all.pixels);
+  EXPECT_EQ(r.mean, image_mean(mean));
+  EXPECT_EQ(r.mean_masked, image_mean(mean, &mask));
+  EXPECT_NE(r.mean, r.mean_masked);
+  // image_mean by hand: the mean over the kept pixels and their channels.
+  double sum = 0;
+  size_t n = 0;
+  for (size_t p = 0; p < mask.size(); ++p)
+    if (mask[p]) sum += double(mean[3 * p]) + mean[3 * p + 1] + mean[3 * p + 2], n += 3;
+  EXPECT_DOUBLE_EQ(image_mean(mean, &mask), sum / double(n));
 }
 
 TEST(NolightMask, AnyEmissionSeenDirectlyLeavesAPixelOut) {
