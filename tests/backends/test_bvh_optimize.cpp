@@ -1,5 +1,6 @@
 // The reinsertion optimization (backends/cuda/bvh_optimize.h) on trees made by hand: a bad tree reaches the best
-// one, the cost never rises, and every leaf stays once with consistent parents and boxes that hold their children.
+// one, the cost never rises (over every node, and over the default share of the largest), and every leaf stays once
+// with consistent parents and boxes that hold their children.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -71,7 +72,7 @@ TEST(BvhReinsertion, PairsTheNearLeaves) {
   const int32_t a = leaf(t, 0), b = leaf(t, 1), c = leaf(t, 10), d = leaf(t, 11), e = leaf(t, 0, 40);
   t.root = join(t, join(t, join(t, a, c), join(t, b, d)), e);
   const double before = t.inner_area_ratio();
-  const ReinsertionStats s = optimize_by_reinsertion(t);
+  const ReinsertionStats s = optimize_by_reinsertion(t, 1.0);  // every node, as small trees need
   check_tree(t, 5);
   EXPECT_DOUBLE_EQ(s.cost_before, before);
   EXPECT_DOUBLE_EQ(s.cost_after, t.inner_area_ratio());
@@ -100,11 +101,15 @@ TEST(BvhReinsertion, NeverRaisesTheCostOfRandomTrees) {
     }
     t.root = pool[0];
     const double before = t.inner_area_ratio();
-    const ReinsertionStats s = optimize_by_reinsertion(t);
+    BuildTree all = t;
+    const ReinsertionStats s = optimize_by_reinsertion(t), s_all = optimize_by_reinsertion(all, 1.0);
     check_tree(t, size_t(n));
+    check_tree(all, size_t(n));
     EXPECT_LE(s.cost_after, before * (1 + 1e-12)) << "trial " << trial;
+    EXPECT_LE(s_all.cost_after, before * (1 + 1e-12)) << "trial " << trial;
     if (n >= 20) {
       EXPECT_LT(s.cost_after, 0.9 * before) << "a random tree of " << n << " leaves, trial " << trial;
+      EXPECT_LT(s_all.cost_after, 0.9 * before) << "a random tree of " << n << " leaves, trial " << trial;
     }
   }
 }

@@ -30,16 +30,18 @@ class Reinserter {
  public:
   explicit Reinserter(BuildTree& t) : t_(t) {}
 
-  // One sweep: every node but the root's children, larger boxes first, moved where the tree's inner area falls
-  // most, or left where it is. Returns the subtrees moved.
-  int sweep() {
+  // One sweep: the `share` of the nodes (but the root's children) with the largest boxes, largest first, each moved
+  // where the tree's inner area falls most, or left where it is. Returns the subtrees moved.
+  int sweep(double share) {
     std::vector<std::pair<double, int32_t>> order;
     for (int32_t i = 0; i < int32_t(t_.nodes.size()); ++i)
       if (movable(i)) order.emplace_back(area(at(i)), i);
-    std::sort(order.begin(), order.end(), std::greater<std::pair<double, int32_t>>());
+    const size_t take = std::min(order.size(), size_t(std::ceil(share * double(order.size()))));
+    std::partial_sort(order.begin(), order.begin() + std::ptrdiff_t(take), order.end(),
+                      std::greater<std::pair<double, int32_t>>());
     int moved = 0;
-    for (const auto& [a, i] : order)
-      if (movable(i)) moved += try_move(i) ? 1 : 0;
+    for (size_t k = 0; k < take; ++k)
+      if (movable(order[k].second)) moved += try_move(order[k].second) ? 1 : 0;
     return moved;
   }
 
@@ -163,7 +165,7 @@ uint32_t BuildTree::depth() const {
   return deepest;
 }
 
-ReinsertionStats optimize_by_reinsertion(BuildTree& tree, int max_sweeps, int patience) {
+ReinsertionStats optimize_by_reinsertion(BuildTree& tree, double share, int max_sweeps, int patience) {
   ReinsertionStats s;
   s.cost_before = s.cost_after = tree.inner_area_ratio();
   size_t inner = 0;
@@ -191,7 +193,7 @@ ReinsertionStats optimize_by_reinsertion(BuildTree& tree, int max_sweeps, int pa
   double cost = tree.inner_area_ratio();
   int stale = 0;
   for (int b = 0; b < max_sweeps && stale < patience; ++b) {
-    s.reinserted += r.sweep();
+    s.reinserted += r.sweep(share);
     ++s.sweeps;
     const double next = tree.inner_area_ratio();
     stale = next < cost * (1.0 - 1e-3) ? 0 : stale + 1;
