@@ -474,8 +474,6 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     summary["lights"] = lights;
   }
   // Image means, over all pixels and over those that see no light (the bias of
-  // a method shows in them, within the noise of both).
-  // Image means, over all pixels and over those that see no light (the bias of
   // a method shows in them, within the noise of both): render/metrics.h's image_mean.
   summary["light_selection"] = light_selection_label(scene.integrator().light_selection, scene.integrator().restir);
   summary["reference"] = {{"spp", a.reference_spp}, {"strategy", technique_name(ref_technique)},
