@@ -25,28 +25,42 @@ struct ErrorMetrics {
   size_t pixels = 0;  // pixels that counted
 };
 
+// The running sums of error_metrics and measure_render: a pixel's channels added one at a time (add), then the
+// pixel counted (next_pixel), in the order that gives both the same bits.
+struct ErrorSums {
+  double se = 0, rel = 0;
+  size_t pixels = 0;
+  void add(double test, float ref) {
+    const double d = test - ref;
+    se += d * d;
+    rel += d * d / (double(ref) * ref + 0.01);
+  }
+  void next_pixel() { ++pixels; }
+  ErrorMetrics metrics() const {
+    ErrorMetrics m;
+    m.pixels = pixels;
+    if (pixels) {
+      m.mse = se / (3.0 * pixels);
+      m.rmse = std::sqrt(m.mse);
+      m.relmse = rel / (3.0 * pixels);
+    }
+    return m;
+  }
+};
+
 inline ErrorMetrics error_metrics(const std::vector<float>& test, const std::vector<float>& ref,
                                   const std::vector<uint8_t>* mask = nullptr) {
-  double se = 0, rel = 0;
-  size_t n = 0;
+  ErrorSums sums;
   for (size_t p = 0; p < ref.size() / 3; ++p) {
     if (mask && !(*mask)[p]) continue;
-    for (int c = 0; c < 3; ++c) {
-      double d = double(test[3 * p + c]) - ref[3 * p + c];
-      se += d * d;
-      rel += d * d / (double(ref[3 * p + c]) * ref[3 * p + c] + 0.01);
-    }
-    ++n;
+    for (int c = 0; c < 3; ++c) sums.add(test[3 * p + c], ref[3 * p + c]);
+    sums.next_pixel();
   }
-  ErrorMetrics m;
-  m.pixels = n;
-  if (n) {
-    m.mse = se / (3.0 * n);
-    m.rmse = std::sqrt(m.mse);
-    m.relmse = rel / (3.0 * n);
-  }
-  return m;
+  return sums.metrics();
 }
+
+// A pixel's three channels summed in double, as the image means and the noise floor add them.
+inline double rgb_sum(const float* px) { return double(px[0]) + px[1] + px[2]; }
 
 // Mean radiance over the pixels `mask` keeps (all with none): the mean over them and their three channels.
 inline double image_mean(const std::vector<float>& img, const std::vector<uint8_t>* mask = nullptr) {
@@ -54,7 +68,7 @@ inline double image_mean(const std::vector<float>& img, const std::vector<uint8_
   size_t n = 0;
   for (size_t p = 0; p < img.size() / 3; ++p)
     if (!mask || (*mask)[p]) {
-      m += double(img[3 * p]) + img[3 * p + 1] + img[3 * p + 2];
+      m += rgb_sum(&img[3 * p]);
       n += 3;
     }
   return n ? m / double(n) : 0.0;
@@ -73,37 +87,25 @@ inline RenderMeasures measure_render(const double* sum, uint64_t samples, const 
   const size_t pixels = ref.size() / 3;
   image->resize(ref.size());
   const double inv = samples ? 1.0 / double(samples) : 0.0;
-  double se = 0, rel = 0, se_m = 0, rel_m = 0, m = 0, m_m = 0;
-  size_t n_m = 0;
+  ErrorSums all, masked;
+  double m = 0, m_m = 0;
   for (size_t p = 0; p < pixels; ++p) {
     const bool keep = mask[p] != 0;
-    float v[3];
+    float* v = image->data() + 3 * p;
     for (int c = 0; c < 3; ++c) {
       v[c] = float(sum[3 * p + c] * inv);
-      (*image)[3 * p + c] = v[c];
-      const double d = double(v[c]) - ref[3 * p + c];
-      const double r = d * d / (double(ref[3 * p + c]) * ref[3 * p + c] + 0.01);
-      se += d * d;
-      rel += r;
-      if (keep) se_m += d * d, rel_m += r;
+      all.add(v[c], ref[3 * p + c]);
+      if (keep) masked.add(v[c], ref[3 * p + c]);
     }
-    const double px = double(v[0]) + v[1] + v[2];
-    m += px;
-    if (keep) m_m += px, ++n_m;
+    all.next_pixel();
+    m += rgb_sum(v);
+    if (keep) masked.next_pixel(), m_m += rgb_sum(v);
   }
   RenderMeasures out;
-  auto finish = [](ErrorMetrics* e, double se_sum, double rel_sum, size_t n) {
-    e->pixels = n;
-    if (n) {
-      e->mse = se_sum / (3.0 * n);
-      e->rmse = std::sqrt(e->mse);
-      e->relmse = rel_sum / (3.0 * n);
-    }
-  };
-  finish(&out.all, se, rel, pixels);
-  finish(&out.masked, se_m, rel_m, n_m);
+  out.all = all.metrics();
+  out.masked = masked.metrics();
   out.mean = pixels ? m / double(3 * pixels) : 0.0;
-  out.mean_masked = n_m ? m_m / double(3 * n_m) : 0.0;
+  out.mean_masked = masked.pixels ? m_m / double(3 * masked.pixels) : 0.0;
   return out;
 }
 
@@ -144,7 +146,7 @@ inline double noise_floor_rmse(const std::vector<float>& var_of_mean, const std:
   size_t n = 0;
   for (size_t p = 0; p < var_of_mean.size() / 3; ++p) {
     if (mask && !(*mask)[p]) continue;
-    v += double(var_of_mean[3 * p]) + var_of_mean[3 * p + 1] + var_of_mean[3 * p + 2];
+    v += rgb_sum(&var_of_mean[3 * p]);
     ++n;
   }
   return n ? std::sqrt(v / (3.0 * n)) : 0.0;
