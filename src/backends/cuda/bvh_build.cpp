@@ -191,11 +191,7 @@ class Builder {
     const int32_t c1 = add_node(n->child[1], &n->bounds[1], index, max_leaf, t);
     t.nodes[size_t(index)].child[0] = c0;
     t.nodes[size_t(index)].child[1] = c1;
-    if (!b) {  // the root's box: its children's
-      BuildTree::Node& r = t.nodes[size_t(index)];
-      const BuildTree::Node &a = t.nodes[size_t(c0)], &z = t.nodes[size_t(c1)];
-      for (int k = 0; k < 3; ++k) r.lo[k] = std::min(a.lo[k], z.lo[k]), r.hi[k] = std::max(a.hi[k], z.hi[k]);
-    }
+    if (!b) t.fit(index);  // the root's box: its children's
     return index;
   }
 

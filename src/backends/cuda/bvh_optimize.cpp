@@ -58,12 +58,10 @@ class Reinserter {
   double refit_up(int32_t i) {
     double fell = 0;
     while (i >= 0) {
-      Node& n = at(i);
-      const double before = area(n);
-      const Node &a = at(n.child[0]), &b = at(n.child[1]);
-      for (int k = 0; k < 3; ++k) n.lo[k] = std::min(a.lo[k], b.lo[k]), n.hi[k] = std::max(a.hi[k], b.hi[k]);
-      fell += before - area(n);
-      i = n.parent;
+      const double before = area(at(i));
+      t_.fit(i);
+      fell += before - area(at(i));
+      i = at(i).parent;
     }
     return fell;
   }
@@ -149,6 +147,12 @@ double BuildTree::inner_area_ratio() const {
   return sum / root_area;
 }
 
+void BuildTree::fit(int32_t i) {
+  Node& n = nodes[size_t(i)];
+  const Node &a = nodes[size_t(n.child[0])], &b = nodes[size_t(n.child[1])];
+  for (int k = 0; k < 3; ++k) n.lo[k] = std::min(a.lo[k], b.lo[k]), n.hi[k] = std::max(a.hi[k], b.hi[k]);
+}
+
 uint32_t BuildTree::depth() const {
   if (root < 0) return 0;
   uint32_t deepest = 0;
@@ -182,12 +186,8 @@ ReinsertionStats optimize_by_reinsertion(BuildTree& tree, double share, int max_
       const Node& n = tree.nodes[size_t(i)];
       if (!n.leaf()) stack.push_back(n.child[0]), stack.push_back(n.child[1]);
     }
-    for (auto it = post.rbegin(); it != post.rend(); ++it) {
-      Node& n = tree.nodes[size_t(*it)];
-      if (n.leaf()) continue;
-      const Node &a = tree.nodes[size_t(n.child[0])], &b = tree.nodes[size_t(n.child[1])];
-      for (int k = 0; k < 3; ++k) n.lo[k] = std::min(a.lo[k], b.lo[k]), n.hi[k] = std::max(a.hi[k], b.hi[k]);
-    }
+    for (auto it = post.rbegin(); it != post.rend(); ++it)
+      if (!tree.nodes[size_t(*it)].leaf()) tree.fit(*it);
   }
   Reinserter r(tree);
   double cost = tree.inner_area_ratio();

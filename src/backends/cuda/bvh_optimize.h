@@ -27,6 +27,8 @@ struct BuildTree {
   double inner_area_ratio() const;
   // Inner nodes on the longest root-to-leaf path.
   uint32_t depth() const;
+  // Node i's box made the union of its two children's (i an inner node).
+  void fit(int32_t i);
 };
 
 struct ReinsertionStats {
