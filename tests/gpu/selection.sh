@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# GPU test: light selection (issue 14) on one scene, CPU against GPU (CTest gpu.selection.SCENE, glossy in two parts:
-# gpu.selection.glossy.1 and .2; what scripts/gpu_check.sh's step 3 was).
+# GPU test: light selection (issue 14) on one scene, CPU against GPU (CTest gpu.selection.SCENE; glossy and
+# sponza-lanterns in two parts, gpu.selection.SCENE.1 and .2; what scripts/gpu_check.sh's step 3 was).
 #
 #   tests/gpu/selection.sh PENUMBRA OUT_DIR SCENE [--part K/N] [METHOD...]
 #
