@@ -3,7 +3,7 @@
 # scene on 1, 2, 4 and 8 GPUs (those the machine has), on the wavefront with each trace stage, in interleaved
 # rounds; the wall time of each, the speed-up over one GPU, and the images byte for byte across GPU counts. Needs
 # a machine with several NVIDIA GPUs, so it cannot run in CI (tests/render/test_multi_backend.cpp checks the split
-# on CPU "devices" there).
+# on CPU "devices" there, and on two parts of one GPU where there is one: gpu.unit.multi_backend).
 #
 #   scripts/multi_gpu_check.sh [BUILD_DIR]
 #

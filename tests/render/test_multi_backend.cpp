@@ -1,14 +1,18 @@
 // MultiBackend (render/multi_backend.h): one image split across devices in
 // sample ranges, on CPU "devices" (several CPU backends of one thread each):
 // the code path of several GPUs, with the image of one device to the bit.
-// And --gpus: which GPUs a specification selects (render/backend.h).
+// And --gpus: which GPUs a specification selects (render/backend.h). Where there
+// is a GPU, the split on it: two backends of GPU 0 as two devices.
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <memory>
 #include <string>
 #include <stdexcept>
+#include <vector>
 
 #include "backends/cpu/cpu_backend.h"
+#include "backends/make_backend.h"
 #include "render/multi_backend.h"
 #include "scene/scene.h"
 
@@ -139,6 +143,72 @@ TEST(MultiBackend, NamesItsDevices) {
   auto multi = cpu_devices(s, 2);
   EXPECT_EQ(multi->name(), "cpu");
   EXPECT_EQ(multi->device_name().rfind("2 devices (CPU 0, CPU 1): 1 CPU thread", 0), 0u) << multi->device_name();
+}
+
+// Two parts of one GPU: MultiBackend over two backends of GPU 0, each with its own path pool, BVH, launch graphs
+// and stream, rendering concurrently from threads of their own, as `--gpus 2` renders on two GPUs. On each GPU path
+// the image (mean and variance) is the one backend's to the bit, and each part renders a range of whole launches.
+// Cases: cornell-sphere at 256x144 (28 samples a launch: 100 samples split 56 + 44), and restir's spatial reuse on
+// many-spheres (a launch a sample: its frame passes run on each part). Skipped without a GPU (CTest's gpu label runs
+// it on one: tests/gpu, gpu.unit.multi_backend).
+TEST(MultiBackendGpu, TwoPartsOfOneGpuRenderOneGpusImage) {
+  struct Path {
+    const char* name;
+    bool wavefront;
+    Traversal traversal;
+  };
+  const Path paths[] = {{"wavefront, cuda traversal", true, Traversal::Cuda},
+                        {"wavefront, optix traversal", true, Traversal::Optix},
+                        {"megakernel", false, Traversal::Auto}};
+  struct Case {
+    const char* scene;
+    std::vector<std::string> sets;
+    uint32_t first, count;
+    bool megakernel;  // restir's reuse has no megakernel path
+  };
+  const Case cases[] = {
+      {"cornell-sphere", {"render.width=256", "render.height=144", "render.seed=11", "render.max_depth=4"}, 3, 100,
+       true},
+      {"many-spheres",
+       {"render.width=96", "render.height=54", "render.seed=5", "defaults.lights=2000",
+        "render.light_selection=restir"},
+       0, 6, false}};
+  for (const Case& c : cases) {
+    const Scene s = load_scene(c.scene, c.sets);
+    const FrameSpec f = frame_spec(s);
+    const int W = s.render.width, H = s.render.height;
+    for (const Path& path : paths) {
+      if (!path.wavefront && !c.megakernel) continue;
+      SCOPED_TRACE(std::string(c.scene) + ", " + path.name);
+      BackendOptions options;
+      options.wavefront = path.wavefront;
+      options.traversal = path.traversal;
+      std::string note;
+      std::unique_ptr<Backend> one;
+      try {
+        one = make_backend("optix", s, options, &note);
+      } catch (const std::exception& e) {
+        GTEST_SKIP() << "no GPU backend here: " << e.what();
+      }
+      std::vector<std::unique_ptr<Backend>> parts;
+      for (int i = 0; i < 2; ++i) parts.push_back(make_backend("optix", s, options, &note));
+      MultiBackend two(std::move(parts), {"GPU 0 (part 0)", "GPU 0 (part 1)"});
+      Film a(W, H), b(W, H);
+      one->render(f, a, c.first, c.count);
+      two.render(f, b, c.first, c.count);
+      EXPECT_EQ(b.samples(), c.count);
+      EXPECT_TRUE(same_bytes(b.mean(), a.mean())) << "the mean differs";
+      EXPECT_TRUE(same_bytes(b.variance_of_mean(), a.variance_of_mean())) << "the variance differs";
+      const RenderStats st = two.last_render_stats();
+      ASSERT_EQ(st.devices.size(), 2u);
+      const uint32_t g = one->split_granularity(f, c.count);
+      EXPECT_EQ(st.devices[0].first_sample, c.first);
+      EXPECT_EQ(st.devices[1].first_sample, c.first + st.devices[0].count);
+      EXPECT_EQ(st.devices[0].count + st.devices[1].count, c.count);
+      for (const DeviceTiming& d : st.devices) EXPECT_GT(d.count, 0u) << "a part rendered nothing";
+      EXPECT_EQ(st.devices[0].count % g, 0u) << "part 0 is not whole launches of " << g;
+    }
+  }
 }
 
 TEST(Gpus, SelectsGpusBySpecification) {
