@@ -12,6 +12,7 @@
 
 #include "backends/cuda/bvh_build.h"
 #include "backends/make_backend.h"
+#include "gpu_paths.h"
 #include "render/backend.h"
 #include "scene/scene.h"
 
@@ -116,18 +117,8 @@ TEST(LightEdit, TheCpuBackendUpdatedInPlaceRendersAsANewOne) {
 // renders, on each path: the wavefront with either trace stage and the megakernel. Skipped without a GPU (CTest's
 // gpu label runs it on one: tests/gpu).
 TEST(LightEdit, TheGpuBackendUpdatedInPlaceRendersAsANewOne) {
-  struct Path {
-    const char* name;
-    bool wavefront;
-    Traversal traversal;
-  };
-  const Path paths[] = {{"wavefront, cuda traversal", true, Traversal::Cuda},
-                        {"wavefront, optix traversal", true, Traversal::Optix},
-                        {"megakernel", false, Traversal::Auto}};
-  for (const Path& path : paths) {
-    BackendOptions options;
-    options.wavefront = path.wavefront;
-    options.traversal = path.traversal;
+  for (const GpuPath& path : kGpuPaths) {
+    const BackendOptions options = path.options();
     for (const Case& c : kCases) {
       SCOPED_TRACE(std::string(c.scene) + ", " + path.name);
       Scene scene = load_scene(c.scene, small(c.selection));

@@ -13,6 +13,7 @@
 
 #include "backends/cpu/cpu_backend.h"
 #include "backends/make_backend.h"
+#include "gpu_paths.h"
 #include "render/multi_backend.h"
 #include "scene/scene.h"
 
@@ -152,14 +153,6 @@ TEST(MultiBackend, NamesItsDevices) {
 // many-spheres (a launch a sample: its frame passes run on each part). Skipped without a GPU (CTest's gpu label runs
 // it on one: tests/gpu, gpu.unit.multi_backend).
 TEST(MultiBackendGpu, TwoPartsOfOneGpuRenderOneGpusImage) {
-  struct Path {
-    const char* name;
-    bool wavefront;
-    Traversal traversal;
-  };
-  const Path paths[] = {{"wavefront, cuda traversal", true, Traversal::Cuda},
-                        {"wavefront, optix traversal", true, Traversal::Optix},
-                        {"megakernel", false, Traversal::Auto}};
   struct Case {
     const char* scene;
     std::vector<std::string> sets;
@@ -177,12 +170,10 @@ TEST(MultiBackendGpu, TwoPartsOfOneGpuRenderOneGpusImage) {
     const Scene s = load_scene(c.scene, c.sets);
     const FrameSpec f = frame_spec(s);
     const int W = s.render.width, H = s.render.height;
-    for (const Path& path : paths) {
+    for (const GpuPath& path : kGpuPaths) {
       if (!path.wavefront && !c.megakernel) continue;
       SCOPED_TRACE(std::string(c.scene) + ", " + path.name);
-      BackendOptions options;
-      options.wavefront = path.wavefront;
-      options.traversal = path.traversal;
+      const BackendOptions options = path.options();
       std::string note;
       std::unique_ptr<Backend> one;
       try {
