@@ -414,9 +414,11 @@ class Renderer:
 @dataclass
 class ConvergeResult:
     """What ``penumbra converge`` writes: ``measurements`` (the rows of
-    measurements.csv, one dict per render: scene, strategy, spp, seed, time_ms,
-    rmse, rmse_nolight, relmse, relmse_nolight) and ``summary`` (summary.json:
-    settings, reference, per-strategy points, fits, efficiency)."""
+    measurements.csv, one dict per render: scene, strategy, spp, seed, time_ms
+    (GPU time on the GPU, wall time on the CPU), wall_ms (the render call's wall
+    time, the read-back included), rmse, rmse_nolight, relmse, relmse_nolight)
+    and ``summary`` (summary.json: settings, reference, per-strategy points,
+    fits, efficiency)."""
 
     measurements: List[Dict[str, Any]] = field(default_factory=list)
     summary: Dict[str, Any] = field(default_factory=dict)
@@ -426,8 +428,8 @@ class ConvergeResult:
         """Per strategy: the log-log fits of RMSE against spp (fit_rmse,
         fit_rmse_nolight: slope, intercept, spp_to_threshold, ms_to_threshold,
         read off the fitted line; fit_spp, the spp it was fitted to; extrapolated,
-        whether spp_to_threshold lies beyond them), ms_per_spp, efficiency and
-        efficiency_nolight."""
+        whether spp_to_threshold lies beyond them), ms_per_spp, wall_ms_per_spp,
+        efficiency and efficiency_nolight."""
         return {name: {k: v for k, v in s.items() if k != "points"}
                 for name, s in self.summary.get("strategies", {}).items()}
 

@@ -546,6 +546,7 @@ them without a copy to the host.)")
           d["spp"] = x.spp;
           d["seed"] = x.seed;
           d["time_ms"] = x.time_ms;
+          d["wall_ms"] = x.wall_ms;
           d["rmse"] = x.rmse;
           d["rmse_nolight"] = x.rmse_nolight;
           d["relmse"] = x.relmse;

@@ -58,6 +58,8 @@ def test_converge_measures_what_the_cli_measures(cli, tmp_path):
         for k in ("rmse", "rmse_nolight", "relmse", "relmse_nolight"):
             # The CSV holds 6 significant digits of the same number.
             assert float(row[k]) == pytest.approx(m[k], rel=1e-5, abs=1e-12), k
+        # On the CPU a render's time is the wall time of its call.
+        assert float(row["wall_ms"]) == float(row["time_ms"]) > 0 and m["wall_ms"] == m["time_ms"] > 0
     assert res.summary["reference"]["cached"]  # the CLI's ground truth, found in the cache
     assert set(res.fits) == {"area", "solid-angle"}
     for name, fit in res.fits.items():

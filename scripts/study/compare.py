@@ -9,8 +9,8 @@ import os
 
 # Values that are measured times (or derived from them), and the bookkeeping
 # that differs between two runs by design.
-TIMES = {"time_ms", "ms_per_spp", "ms_to_threshold", "efficiency", "efficiency_nolight", "seconds",
-         "estimated_seconds"}
+TIMES = {"time_ms", "wall_ms", "ms_per_spp", "wall_ms_per_spp", "ms_to_threshold", "efficiency",
+         "efficiency_nolight", "seconds", "estimated_seconds"}
 BOOKKEEPING = {"device", "executor"}
 REFERENCE_BOOKKEEPING = {"cached", "seconds", "file"}
 
@@ -36,7 +36,7 @@ def summary_numbers(path):
 
 def csv_numbers(path):
     with open(path) as f:
-        return [{k: v for k, v in row.items() if k != "time_ms"} for row in csv.DictReader(f)]
+        return [{k: v for k, v in row.items() if k not in TIMES} for row in csv.DictReader(f)]
 
 
 def compare_runs(a_part, b_part):

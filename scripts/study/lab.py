@@ -4,7 +4,8 @@ import json
 import os
 
 from .common import checks_passed, log, write_atomic, write_text
-from .metrics import fit_extrapolated, lab_efficiency, lab_speedups, lab_threshold, light_distance, speedup
+from .metrics import (fit_extrapolated, lab_efficiency, lab_speedups, lab_threshold, light_distance, speedup,
+                      wall_times)
 from .planner import LAB_POLYGON_SCENES, LAB_TECHNIQUES
 from .report import finish_ratio_plot, fmt, generated_by, np, plt
 
@@ -153,11 +154,17 @@ def write_lab_report(args, lab, head, sweeps, out_dir):
               f"{fmt(a['efficiency_nolight'] / b['efficiency_nolight'])}x | "
               f"{a['ms_per_spp']:.3f} / {b['ms_per_spp']:.3f} |")
     w("\n## Cost: ms per spp\n")
-    w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
-    w("| --- |" + " ---: |" * len(cols))
-    for r in head:
-        w(f"| {r['scene']} | " + " | ".join(f"{r['strategies'][t]['ms_per_spp']:.3f}" if t in r["strategies"]
-                                             else NOT_RUN for t in cols) + " |")
+    wall = wall_times(head)
+    if wall:
+        w("GPU time; below it, the wall time of the same render calls (the film's read-back included).\n")
+    for i, key in enumerate(["ms_per_spp"] + (["wall_ms_per_spp"] if wall else [])):
+        if i:
+            w("")
+        w("| scene | " + " | ".join(f"`{t}`" for t in cols) + " |")
+        w("| --- |" + " ---: |" * len(cols))
+        for r in head:
+            w(f"| {r['scene']} | " + " | ".join(f"{r['strategies'][t][key]:.3f}" if t in r["strategies"]
+                                                 else NOT_RUN for t in cols) + " |")
     w("\n## Per scene: RMSE at the largest spp, slopes\n")
     for r in head:
         w(f"**{r['scene']}** ({r['width']}x{r['height']}; reference noise adds RMSE {r['reference']['rmse_floor']:.4f} "

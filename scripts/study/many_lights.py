@@ -7,7 +7,7 @@ import subprocess
 from .common import checks_passed, log, write_text
 from .executors import run_cmd
 from .metrics import (many_efficiency, many_mean_bias, many_relmse_efficiency, many_technique, median_seed_slope,
-                      mse_nolight)
+                      mse_nolight, wall_times)
 from .planner import (MANY_CORRELATED, MANY_PARAMS, MANY_SCENES, MANY_SELECTION_STRATEGIES, MANY_SELECTIONS,
                       MANY_STRATEGIES)
 from .report import fmt, generated_by, matplotlib, plt
@@ -157,17 +157,20 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         share = f" ({100 * lp / (runs['power']['width'] * runs['power']['height']):.1f}% of the image)" \
             if isinstance(lp, (int, float)) else ""
         w(f"No-light pixels; the last column counts every pixel, the lamps' own{share} too.\n")
+        wall = wall_times(runs.values())  # GPU runs that also timed each render call: wall time beside GPU time
         w("| selection | " + " | ".join(f"`{st}`" for st in MANY_STRATEGIES) +
-          " | relMSE-efficiency (solid-angle) | ms/spp (solid-angle) | all pixels (solid-angle) |")
-        w("| --- |" + " ---: |" * (len(MANY_STRATEGIES) + 3))
+          " | relMSE-efficiency (solid-angle) | ms/spp (solid-angle) |" +
+          (" wall ms/spp (solid-angle) |" if wall else "") + " all pixels (solid-angle) |")
+        w("| --- |" + " ---: |" * (len(MANY_STRATEGIES) + 3 + wall))
         sels = list(runs)  # the selections that ran (many_group)
         for sel in sels:
             rel = many_relmse_efficiency(runs[sel], "solid-angle") / many_relmse_efficiency(runs["power"], "solid-angle")
-            ms = runs[sel]["strategies"][many_technique("solid-angle")]["ms_per_spp"]
+            sa = runs[sel]["strategies"][many_technique("solid-angle")]
             w(f"| `{sel}` | " + " | ".join(fmt(many_efficiency(runs, sel, st))
                                            if many_technique(st) in runs[sel]["strategies"] else "not run"
                                            for st in MANY_STRATEGIES) +
-              f" | {fmt(rel)} | {ms:.3f} | {fmt(many_efficiency(runs, sel, 'solid-angle', key='efficiency'))} |")
+              f" | {fmt(rel)} | {sa['ms_per_spp']:.3f} |" + (f" {sa['wall_ms_per_spp']:.3f} |" if wall else "") +
+              f" {fmt(many_efficiency(runs, sel, 'solid-angle', key='efficiency'))} |")
         missing = [sel for sel in MANY_SELECTIONS if sel not in runs]
         if missing:
             w("\nNot in this report (no run of it here): " + ", ".join(f"`{sel}`" for sel in missing) + ".")

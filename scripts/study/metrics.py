@@ -22,6 +22,16 @@ def speedup(summary, key="fit_rmse", to="ms_to_threshold"):
     return a / s if s > 0 and math.isfinite(a) and math.isfinite(s) else float("nan")
 
 
+def wall_times(summaries):
+    """Whether the runs timed their renders on the GPU and also measured the wall time of each render call
+    (`wall_ms_per_spp`, the film's read-back included): the reports then show it beside the GPU time. On the CPU
+    a render's time is its wall time already; runs made before converge measured it have none."""
+    summaries = list(summaries)
+    return bool(summaries) and all(s.get("backend") != "cpu" and all("wall_ms_per_spp" in js
+                                                                     for js in s["strategies"].values())
+                                   for s in summaries)
+
+
 def efficiency_ratio(summary, key="efficiency"):
     a = summary["strategies"]["area"][key]
     s = summary["strategies"]["solid-angle"][key]

@@ -59,24 +59,32 @@ uint64_t fnv1a(const std::string& s) {
   return h;
 }
 
-// Renders `spp` samples (from sample `first`) and returns the GPU time of the
-// launches when the backend measures it, else the wall time, in milliseconds;
-// split across devices, the time of the slowest device.
-double timed_render(Backend& b, const FrameSpec& f, Film& film, uint32_t first, uint32_t spp,
-                    const ProgressFn& progress = nullptr) {
+// A render call's times, in milliseconds: `ms`, the GPU time of its launches
+// where the backend measures them (split across devices, the slowest device's),
+// else the wall time; `wall_ms`, the host's clock around the whole call, the
+// film's read-back included (docs/metrics.md).
+struct RenderTime {
+  double ms = 0, wall_ms = 0;
+};
+
+// Renders `spp` samples (from sample `first`) and times the call.
+RenderTime timed_render(Backend& b, const FrameSpec& f, Film& film, uint32_t first, uint32_t spp,
+                        const ProgressFn& progress = nullptr) {
   auto t0 = std::chrono::steady_clock::now();
   b.render(f, film, first, spp, progress);
-  double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  RenderTime t;
+  t.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  t.ms = t.wall_ms;
   RenderStats st = b.last_render_stats();
   if (!st.devices.empty()) {
     double slowest = 0;
     for (const DeviceTiming& d : st.devices) slowest = std::max(slowest, d.gpu_ms > 0 ? d.gpu_ms : d.wall_ms);
-    return slowest;
+    t.ms = slowest;
+  } else if (!st.launches.empty()) {
+    t.ms = 0;
+    for (const auto& l : st.launches) t.ms += l.trace_ms + l.accumulate_ms;
   }
-  if (st.launches.empty()) return wall;
-  double gpu = 0;
-  for (const auto& l : st.launches) gpu += l.trace_ms + l.accumulate_ms;
-  return gpu;
+  return t;
 }
 
 // The pixel rectangle of the figure-4.1 crop: a square around the projection of
@@ -517,19 +525,19 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
     f.integrator.mis = tq.mis;
     std::vector<double> lx, ly, lyn;
     json points = json::array();
-    double ms_per_spp = 0;
+    double ms_per_spp = 0, wall_ms_per_spp = 0;
     json frame = json::object();  // --frame-spp: the last sample alone
     for (int spp : spps) {
-      double rm = 0, rmn = 0, mse = 0, msen = 0, rel = 0, reln = 0, ms = 0, mean = 0, mean_nolight = 0;
+      double rm = 0, rmn = 0, mse = 0, msen = 0, rel = 0, reln = 0, ms = 0, wall_ms = 0, mean = 0, mean_nolight = 0;
       for (int seed = 1; seed <= a.seeds; ++seed) {
         f.seed = uint32_t(seed);
         film.reset(W, H);
-        double t = timed_render(*backend, f, film, 0, uint32_t(spp), a.progress);
+        const RenderTime t = timed_render(*backend, f, film, 0, uint32_t(spp), a.progress);
         count_nonfinite(nonfinite_renders);
         const RenderMeasures measured = measure_render(film.sum(), film.samples(), ref, mask, &img);
         const ErrorMetrics &all = measured.all, &nolight = measured.masked;
         result.measurements.push_back(
-            {name, spp, seed, t, all.rmse, nolight.rmse, all.relmse, nolight.relmse});
+            {name, spp, seed, t.ms, t.wall_ms, all.rmse, nolight.rmse, all.relmse, nolight.relmse});
         mean += measured.mean / a.seeds;
         mean_nolight += measured.mean_masked / a.seeds;
         rm += all.rmse / a.seeds;
@@ -538,7 +546,8 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
         msen += nolight.mse / a.seeds;
         rel += all.relmse / a.seeds;
         reln += nolight.relmse / a.seeds;
-        ms += t / a.seeds;
+        ms += t.ms / a.seeds;
+        wall_ms += t.wall_ms / a.seeds;
         done_spp += spp;
         bar.update(done_spp, total_spp);
         if (spp == a.frame_spp) {  // sample N alone: the N-spp render's sums less the (N - 1)-spp render's
@@ -565,16 +574,17 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
       }
       points.push_back({{"spp", spp}, {"rmse", rm}, {"rmse_nolight", rmn}, {"mse", mse}, {"mse_nolight", msen},
                         {"relmse", rel}, {"relmse_nolight", reln},
-                        {"time_ms", ms}, {"mean", mean}, {"mean_nolight", mean_nolight}});
+                        {"time_ms", ms}, {"wall_ms", wall_ms}, {"mean", mean}, {"mean_nolight", mean_nolight}});
       if (spp >= a.fit_min_spp) {
         lx.push_back(std::log(double(spp)));
         ly.push_back(std::log(rm));
         lyn.push_back(std::log(rmn));
       }
       ms_per_spp = ms / spp;  // from the largest spp: launch overheads amortised
+      wall_ms_per_spp = wall_ms / spp;
     }
-    json js = {{"points", points}, {"ms_per_spp", ms_per_spp}, {"strategy", strategy_name(tq.strategy)},
-               {"mis", mis_name(tq.mis)}};
+    json js = {{"points", points}, {"ms_per_spp", ms_per_spp}, {"wall_ms_per_spp", wall_ms_per_spp},
+               {"strategy", strategy_name(tq.strategy)}, {"mis", mis_name(tq.mis)}};
     auto fit_json = [&](const std::vector<double>& y, const char* name) {
       if (lx.size() < 2) return;
       LineFit fit = fit_line(lx, y);
@@ -640,13 +650,13 @@ std::string default_cache_dir(const std::string& xdg_cache_home, const std::stri
 }
 
 std::string converge_csv_header() {
-  return "scene,strategy,spp,seed,time_ms,rmse,rmse_nolight,relmse,relmse_nolight\n";
+  return "scene,strategy,spp,seed,time_ms,wall_ms,rmse,rmse_nolight,relmse,relmse_nolight\n";
 }
 
 std::string converge_csv_row(const std::string& scene, const ConvergeMeasurement& m) {
   std::ostringstream row;
-  row << scene << "," << m.strategy << "," << m.spp << "," << m.seed << "," << m.time_ms << "," << m.rmse << ","
-      << m.rmse_nolight << "," << m.relmse << "," << m.relmse_nolight << "\n";
+  row << scene << "," << m.strategy << "," << m.spp << "," << m.seed << "," << m.time_ms << "," << m.wall_ms << ","
+      << m.rmse << "," << m.rmse_nolight << "," << m.relmse << "," << m.relmse_nolight << "\n";
   return row.str();
 }
 

@@ -69,7 +69,9 @@ struct ConvergeOptions {
 struct ConvergeMeasurement {
   std::string strategy;  // the technique's name: "area", "area+power"
   int spp = 0, seed = 0;
-  double time_ms = 0, rmse = 0, rmse_nolight = 0, relmse = 0, relmse_nolight = 0;
+  double time_ms = 0;  // GPU time on the GPU, wall time on the CPU (docs/metrics.md)
+  double wall_ms = 0;  // the host's clock around the render call, the film's read-back included
+  double rmse = 0, rmse_nolight = 0, relmse = 0, relmse_nolight = 0;
 };
 
 // Past this estimated time on the CPU, run_converge() asks for `yes`.

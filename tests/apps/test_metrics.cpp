@@ -324,7 +324,7 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
       const json& pt = points[k];
       ASSERT_EQ(pt["spp"].get<int>(), spp);
       ASSERT_EQ(rows[technique][spp].size(), size_t(seeds));
-      double rm = 0, rmn = 0, mse = 0, msen = 0, reln = 0, ms = 0;
+      double rm = 0, rmn = 0, mse = 0, msen = 0, reln = 0, ms = 0, wall = 0;
       for (int seed = 1; seed <= seeds; ++seed) {
         const ConvergeMeasurement& m = *rows[technique][spp][seed - 1];
         ASSERT_EQ(m.seed, seed);
@@ -339,12 +339,14 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
         EXPECT_NEAR(m.relmse, rel, 1e-9 * rel) << spp << " spp, seed " << seed;
         EXPECT_NEAR(m.relmse_nolight, reln_seed, 1e-9 * reln_seed) << spp << " spp, seed " << seed;
         EXPECT_GT(m.time_ms, 0.0);
+        EXPECT_EQ(m.wall_ms, m.time_ms);  // on the CPU the time is the wall time of the call
         rm += m.rmse / seeds;
         rmn += m.rmse_nolight / seeds;
         mse += e * e / seeds;
         msen += en * en / seeds;
         reln += m.relmse_nolight / seeds;
         ms += m.time_ms / seeds;
+        wall += m.wall_ms / seeds;
         if (spp == o.frame_spp) {  // sample 4 alone: the 4-spp sums less the 3-spp sums
           Film before(W, H);
           backend->render(f, before, 0, uint32_t(spp - 1));
@@ -362,6 +364,7 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
       EXPECT_NEAR(pt["mse"].get<double>(), mse, 1e-9 * mse);
       EXPECT_NEAR(pt["mse_nolight"].get<double>(), msen, 1e-9 * msen);
       EXPECT_NEAR(pt["time_ms"].get<double>(), ms, 1e-12 * ms);
+      EXPECT_NEAR(pt["wall_ms"].get<double>(), wall, 1e-12 * wall);
       if (spp >= o.fit_min_spp) {
         lx.push_back(std::log(double(spp)));
         ly.push_back(std::log(rm));
@@ -370,6 +373,8 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
     }
     const double ms_per_spp = points.back()["time_ms"].get<double>() / max_spp;
     EXPECT_NEAR(js["ms_per_spp"].get<double>(), ms_per_spp, 1e-12 * ms_per_spp);
+    const double wall_ms_per_spp = points.back()["wall_ms"].get<double>() / max_spp;
+    EXPECT_NEAR(js["wall_ms_per_spp"].get<double>(), wall_ms_per_spp, 1e-12 * wall_ms_per_spp);
 
     // Least squares by hand: slope = cov(x, y) / var(x), through the means; then the spp where the line meets
     // the threshold and that many spp's time.

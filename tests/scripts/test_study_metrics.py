@@ -88,6 +88,20 @@ def test_fit_time_to():
     assert metrics.fit_time_to(LAB, "missing", 0.1) == math.inf
 
 
+def test_wall_times_only_for_gpu_runs_that_measured_them():
+    def run(backend, wall):
+        strategies = {t: dict(technique(0.8, 2.0), **({"wall_ms_per_spp": 2.5} if wall else {}))
+                      for t in ("area", "solid-angle")}
+        return dict(backend=backend, strategies=strategies)
+    assert metrics.wall_times([run("optix", True), run("optix", True)])
+    assert not metrics.wall_times([run("optix", True), run("optix", False)])  # one run from before they were timed
+    assert not metrics.wall_times([run("cpu", True)])  # on the CPU the time is the wall time already
+    assert not metrics.wall_times([])
+    one_missing = run("optix", True)
+    del one_missing["strategies"]["area"]["wall_ms_per_spp"]
+    assert not metrics.wall_times([one_missing])
+
+
 def test_lab_threshold_is_the_largest_last_rmse_of_light_sampling():
     # At 8 spp: area 0.8 / sqrt(8), solid-angle 0.4 / sqrt(8), bsdf 1.6 / sqrt(8) (left out): area's.
     assert metrics.lab_threshold(LAB) == pytest.approx(0.8 / math.sqrt(8))
