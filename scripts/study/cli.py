@@ -18,7 +18,7 @@ import sys
 
 from .common import RunFailed, log
 from .denoise import run_denoise
-from .executors import plan, plan_on_ray, run_all, run_on_ray
+from .executors import Ledger, plan, plan_on_ray, run_all, run_on_ray
 from .lab import finish_lab
 from .many_lights import finish_many_lights
 from .planner import (DENOISE_PRESETS, HEADLINE, LAB_PRESETS, LAB_SCENES, MANY_PARAM_SCENES, MANY_PRESETS,
@@ -116,6 +116,11 @@ def main(prog=None):
                     help="local executor: start without estimating every run first (a penumbra process and a "
                          "measurement each; no total is printed); each run prints its own estimate and, on the CPU, "
                          "stops past an hour without --yes")
+    ap.add_argument("--resume", action="store_true",
+                    help="local executor, the thesis, lab and many-lights parts: keep the runs an earlier study "
+                         "finished with the same command and the same penumbra (their files unchanged since; "
+                         "recorded in <cache>/study-local/) and run the rest: an interrupted study continues where it "
+                         "stopped (the Ray executor always does)")
     ap.add_argument("--force", action="store_true", help="overwrite a report folder that is committed to git")
     args = ap.parse_args()
     if args.no_report:
@@ -167,6 +172,8 @@ def main(prog=None):
     thesis_runs = thesis_plan(args, preset, thesis_dir) if args.part in ("thesis", "all") else ([], {})
     many_runs = many_plan(args, many, many_dir) if args.part in ("many-lights", "all") else ([], {})
     args.ray_failed = {}
+    # Every run the local executor finishes is recorded, so that a later --resume can keep it.
+    args.ledger = Ledger(args) if args.executor == "local" and not args.report_only else None
     if not args.report_only:
         every = [r for head, sweeps in (lab_runs, thesis_runs, many_runs) for r in head + sum(sweeps.values(), [])]
         planned = plan_on_ray(args, every) if args.executor == "ray" else [(r, None) for r in plan(args, every)]

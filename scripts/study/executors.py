@@ -1,6 +1,7 @@
 """How the study's runs run: the local executor (`penumbra converge` one run
 after the other, or penumbra.converge() with --engine python) with its estimate,
 and the entry to the Ray executor (ray_executor.py)."""
+import hashlib
 import json
 import os
 import subprocess
@@ -69,6 +70,86 @@ def python_converge(args, r, **kw):
         raise RunFailed(str(e)) from e
 
 
+# --- Resuming (--resume) ---------------------------------------------------------------
+
+def default_cache():
+    """penumbra's own ground-truth cache folder (`penumbra converge` without --cache; docs/guide.md)."""
+    if os.environ.get("XDG_CACHE_HOME"):
+        return os.path.join(os.environ["XDG_CACHE_HOME"], "penumbra")
+    if os.environ.get("HOME"):
+        return os.path.join(os.environ["HOME"], ".cache", "penumbra")
+    return ".penumbra-cache"
+
+
+def sha256_file(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def penumbra_identity(args):
+    """What made a run: the executable's version line (its commit), size and modification time, or the Python
+    module's build; measured once."""
+    if getattr(args, "identity", None) is None:
+        if args.engine == "python":
+            import penumbra
+            args.identity = {"module": penumbra.build_info()}
+        else:
+            p = subprocess.run([args.penumbra, "--version"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                               text=True)
+            st = os.stat(args.penumbra)
+            args.identity = {"version": p.stdout.strip(), "size": st.st_size, "mtime_ns": st.st_mtime_ns}
+    return args.identity
+
+
+class Ledger:
+    """The local executor's finished runs, for --resume: one file per run under <cache>/study-local/, named by a
+    hash of the run's command and the penumbra that ran it, holding the hash of the output it left (summary.json,
+    or bench's JSON). A run is done when its entry exists and its output is still that file: the same command
+    with another penumbra, or an output another run has since overwritten, runs again."""
+
+    def __init__(self, args):
+        self.folder = os.path.join(args.cache or default_cache(), "study-local")
+        self.args = args
+
+    def entry(self, command):
+        text = json.dumps({"command": command, "penumbra": penumbra_identity(self.args)}, sort_keys=True)
+        return os.path.join(self.folder, "run-" + hashlib.sha256(text.encode()).hexdigest()[:24] + ".json")
+
+    def done(self, command, output):
+        try:
+            with open(self.entry(command)) as f:
+                kept = json.load(f)
+            return os.path.abspath(output) == kept["output"] and sha256_file(output) == kept["sha256"]
+        except (OSError, ValueError, KeyError):
+            return False
+
+    def mark(self, command, output):
+        os.makedirs(self.folder, exist_ok=True)
+        record = {"command": command, "output": os.path.abspath(output), "sha256": sha256_file(output)}
+
+        def w(tmp):
+            with open(tmp, "w") as f:
+                json.dump(record, f)
+        write_atomic(self.entry(command), w)
+
+
+def run_command(args, r):
+    """What identifies a run for --resume: its `penumbra converge` command (without --yes), or penumbra.converge()'s
+    arguments with --engine python."""
+    if args.engine == "python":
+        return ["penumbra.converge", r.scene, run_dir(args, r), converge_options(args, r)]
+    return converge_cmd(args, r)
+
+
+def resumed(args, r):
+    """--resume: whether an earlier study finished this run with the same command and penumbra (its files kept)."""
+    return args.resume and args.executor == "local" and \
+        args.ledger.done(run_command(args, r), os.path.join(run_dir(args, r), "summary.json"))
+
+
 def estimate(args, r):
     """penumbra's estimate of one run (it measures the backend): (seconds, backend name)."""
     if args.engine == "python":
@@ -92,14 +173,22 @@ def plan(args, runs):
     estimate loads the scene); each run still prints its own estimate, and on
     the CPU refuses to run past an hour without --yes."""
     args.estimated = not args.no_estimate
+    if args.resume:
+        done = [r for r in runs if resumed(args, r)]
+        if done:
+            log(f"study: --resume: {len(done)} of {len(runs)} runs finished earlier with the same command and penumbra "
+                "are kept")
+        runs_left = [r for r in runs if r not in done]
+    else:
+        runs_left = runs
     if not args.estimated:
         groups = sorted({r.group for r in runs if r.group is not None})
         log(f"study: {len(runs)} runs, not estimated beforehand (--no-estimate); each prints its own estimate"
             + (f"; trying the optional {', '.join(groups)} first" if groups else ""))
     else:
-        log(f"study: estimating {len(runs)} runs on --backend {args.backend} ...")
+        log(f"study: estimating {len(runs_left)} runs on --backend {args.backend} ...")
     total, backend, dropped, tried = 0.0, args.backend, set(), set()
-    for r in runs:
+    for r in runs_left:
         if r.group in dropped:
             continue
         if not args.estimated:
@@ -170,13 +259,17 @@ def converge(args, r):
     if out in args.ray_failed:
         raise RunFailed(args.ray_failed[out])
     if not args.report_only and args.executor == "local":
-        if args.engine == "python":
+        if resumed(args, r):
+            log(f"study: kept (--resume): {out}")
+        elif args.engine == "python":
             log(f"study: penumbra.converge({r.scene!r}, out={out!r}, {r.cfg}, overrides={list(r.sets)})")
             python_converge(args, r, out=out, verbose=True, yes=confirmed(args))
         else:
             cmd = converge_cmd(args, r) + (["--yes"] if confirmed(args) else [])
             log("study: " + " ".join(cmd))
             run_cmd(cmd)
+        if args.ledger:
+            args.ledger.mark(run_command(args, r), os.path.join(out, "summary.json"))
     return load_summary(out, r.name)
 
 

@@ -54,8 +54,12 @@ def many_bench(args, cfg, out_dir):
                "--strategies", "solid-angle", "--mis", "power", "--width", str(cfg["sweep"]["width"]), "--height",
                str(cfg["sweep"]["height"]), "--launches", "5" if args.preset == "smoke" else "20", "--json", path]
         if not args.report_only:
-            log("study: " + " ".join(cmd))
-            run_cmd(cmd, stdout=subprocess.DEVNULL)
+            if args.resume and args.ledger.done(cmd, path):
+                log(f"study: kept (--resume): {path}")
+            else:
+                log("study: " + " ".join(cmd))
+                run_cmd(cmd, stdout=subprocess.DEVNULL)
+            args.ledger.mark(cmd, path)
         if os.path.exists(path):
             with open(path) as f:
                 out.append(dict(lights=n, bench=json.load(f)))
