@@ -19,6 +19,7 @@ import sys
 from .common import RunFailed, log
 from .denoise import run_denoise
 from .executors import Ledger, plan, plan_on_ray, run_all, run_on_ray
+from .external import run_anchors, run_gpu_speed
 from .lab import finish_lab
 from .many_lights import finish_many_lights
 from .planner import (DENOISE_PRESETS, HEADLINE, LAB_PRESETS, LAB_SCENES, MANY_PARAM_SCENES, MANY_PRESETS,
@@ -91,12 +92,16 @@ def main(prog=None):
                          "the first N of CUDA_VISIBLE_DEVICES); scripts/scale_out_study.py varies it")
     ap.add_argument("--retries", type=int, default=3,
                     help="ray: how often a task whose worker or machine is lost runs again (Ray's max_retries)")
-    ap.add_argument("--part", choices=["thesis", "lab", "many-lights", "denoise", "all"], default="all",
+    ap.add_argument("--part", choices=["thesis", "lab", "many-lights", "denoise", "gpu-speed", "anchors", "all"],
+                    default="all",
                     help="thesis: chapter 4 (area against solid-angle, docs/results/thesis/README.md); lab: every strategy and "
                          "MIS mode on the lab's scenes (docs/results/lab/README.md); many-lights: light selection "
                          "methods at equal time and the lights-count sweep (docs/results/many-lights/README.md); "
                          "denoise: raw and denoised RMSE per strategy, 1-64 spp, on the headline scenes, on any backend ("
-                         "docs/results/denoise/README.md); all: the four")
+                         "docs/results/denoise/README.md); gpu-speed: scripts/gpu_speed.sh (on a GPU; "
+                         "docs/results/gpu-speed/README.md); anchors: scripts/anchors/run.sh (penumbra against Mitsuba "
+                         "3; docs/results/anchors/README.md); all: the six, each skipped in one line where it cannot "
+                         "run")
     ap.add_argument("--only", choices=["headline", "sweeps", "params"],
                     help="run one part only; params (many-lights only, not part of a default run): restir's "
                          "candidates, spatial passes and neighbours at the headline's size (many-lights/params.md)")
@@ -174,8 +179,8 @@ def main(prog=None):
     args.ray_failed = {}
     # Every run the local executor finishes is recorded, so that a later --resume can keep it.
     args.ledger = Ledger(args) if args.executor == "local" and not args.report_only else None
-    if not args.report_only:
-        every = [r for head, sweeps in (lab_runs, thesis_runs, many_runs) for r in head + sum(sweeps.values(), [])]
+    every = [r for head, sweeps in (lab_runs, thesis_runs, many_runs) for r in head + sum(sweeps.values(), [])]
+    if not args.report_only and every:
         planned = plan_on_ray(args, every) if args.executor == "ray" else [(r, None) for r in plan(args, every)]
         kept = {run_key(r) for r, _ in planned}
         lab_runs, thesis_runs, many_runs = keep(lab_runs, kept), keep(thesis_runs, kept), keep(many_runs, kept)
@@ -195,6 +200,10 @@ def main(prog=None):
         ok = finish_thesis(args, preset, thesis_dir, *run_all(args, thesis_runs)) and ok
     if args.part in ("denoise", "all"):
         ok = run_denoise(args, os.path.join(args.out, "denoise")) and ok
+    if args.part in ("gpu-speed", "all"):
+        ok = run_gpu_speed(args, os.path.join(args.out, "gpu-speed")) and ok
+    if args.part in ("anchors", "all"):
+        ok = run_anchors(args, os.path.join(args.out, "anchors")) and ok
     if not ok:
         sys.exit(1)
     if not args.keep_runs:
