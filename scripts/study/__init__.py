@@ -2,9 +2,10 @@
 scenes and sweeps, then writes its reports.
 
     planner       Run tuples, presets, the plan of each part
-    executors     the local executor and its estimate; the entry to the Ray one
+    executors     the local executor, its estimate and its ledger (--resume); the entry to the Ray one
     ray_executor  the study as tasks on a Ray cluster (--executor ray)
     thesis, lab, many_lights, denoise   one part each: figures, report, checks
+    external      the parts their own scripts make: gpu-speed, anchors
     report        what the reports share (first lines, formats, figure helpers)
     metrics       the ratios and fits the reports print
     compare       two outputs' runs number for number (all but times)
