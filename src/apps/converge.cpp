@@ -170,7 +170,44 @@ struct Setup {
   LightSelection ref_selection = LightSelection::Power;
   std::vector<int> crop;
   ReferencePlan ref;
+  std::string mask_path;  // where the light mask is cached (light_mask_frame)
 };
+
+// The light mask's render: camera rays alone (max depth 0: only emission seen directly), which no technique,
+// MIS mode or light selection acts on (they start at the first bounce). Its settings are fixed here, so that every
+// run of a scene at a size measures the same pixel set and the mask is cached by the scene, size and seed.
+FrameSpec light_mask_frame(const Scene& scene) {
+  FrameSpec f = frame_spec(scene);
+  f.integrator.max_depth = 0;
+  f.integrator.strategy = Strategy::Area;
+  f.integrator.mis = Mis::None;
+  f.integrator.light_selection = LightSelection::Power;
+  f.integrator.mis_compensation = false;
+  return f;
+}
+
+// The light mask in the cache: a binary PGM (P5), 255 where a pixel sees no light, 0 where it does (or borders one);
+// viewable as an image. Empty where there is none of this size.
+std::vector<uint8_t> read_light_mask(const std::string& path, int W, int H) {
+  std::ifstream f(path, std::ios::binary);
+  std::string magic;
+  int w = 0, h = 0, maxval = 0;
+  if (!(f >> magic >> w >> h >> maxval) || magic != "P5" || w != W || h != H || maxval != 255 || f.get() != '\n')
+    return {};
+  std::vector<uint8_t> mask(size_t(W) * H);
+  if (!f.read(reinterpret_cast<char*>(mask.data()), std::streamsize(mask.size()))) return {};
+  for (uint8_t& m : mask) {
+    if (m != 0 && m != 255) return {};
+    m = m ? 1 : 0;
+  }
+  return mask;
+}
+
+void write_light_mask(const std::string& path, const std::vector<uint8_t>& mask, int W, int H) {
+  std::string pgm = "P5\n" + std::to_string(W) + " " + std::to_string(H) + "\n255\n";
+  for (uint8_t m : mask) pgm += char(m ? 255 : 0);
+  write_file_atomic(path, pgm);
+}
 
 Setup prepare(const ConvergeOptions& a) {
   Setup s;
@@ -240,6 +277,16 @@ Setup prepare(const ConvergeOptions& a) {
   r.chunk_spp = std::min(a.reference_chunk, a.reference_spp);
   r.chunks = (r.spp + r.chunk_spp - 1) / r.chunk_spp;
   r.cached = fs::exists(r.path) && fs::exists(r.var_path);
+  // The light mask's key: the scene document less what its render does not use (light_mask_frame), the seed it is
+  // rendered with, its samples and the renderer.
+  json mask_doc = key_doc;
+  if (mask_doc.contains("render") && mask_doc["render"].is_object())
+    for (const char* k : {"max_depth", "rr_depth", "slc_cut"}) mask_doc["render"].erase(k);
+  std::ostringstream mask_key;
+  mask_key << std::hex
+           << fnv1a(mask_doc.dump() + "|mask|" + std::to_string(light_mask_frame(s.scene).seed) + "|" +
+                    std::to_string(kLightMaskSpp) + "|" + PENUMBRA_VERSION + "|" + PENUMBRA_GIT_COMMIT);
+  s.mask_path = cache + "/mask-" + mask_key.str() + ".pgm";
   return s;
 }
 
@@ -376,13 +423,13 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   // --- How long it will take -----------------------------------------------------
   // Each technique's cost per render call, measured; then the reference (a
   // call per chunk), the light mask, and every technique x seed x spp.
-  FrameSpec mask_frame = frame_spec(scene);
-  mask_frame.integrator.max_depth = 0;
+  const FrameSpec mask_frame = light_mask_frame(scene);
+  std::vector<uint8_t> mask = read_light_mask(setup.mask_path, W, H);  // empty: to render
   double estimate = 0;
   {
     const CallCost ref_cost = measure_cost(*backend, reference_frame(setup), W, H);
     if (!cached) estimate += ref_cost.seconds(plan.chunks, a.reference_spp);
-    estimate += measure_cost(*backend, mask_frame, W, H).seconds(1, kLightMaskSpp);
+    if (mask.empty()) estimate += measure_cost(*backend, mask_frame, W, H).seconds(1, kLightMaskSpp);
     double spp_total = 0;
     for (int s : spps) spp_total += s;
     FrameSpec f = frame_spec(scene);
@@ -450,12 +497,17 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   // pixel with some of it (also partially covered ones), and its eight
   // neighbours (slivers of a lamp's edge that no sample found), are left out
   // of the "no light" metrics (docs/metrics.md).
-  std::vector<uint8_t> mask;
-  {
+  // Cached by the scene, size and seed (prepare(), light_mask_frame); one whose render met NaN or infinite
+  // samples is not cached, so that every run counts them.
+  const bool mask_cached = !mask.empty();
+  if (mask_cached) {
+    log("light mask: %s (cached)\n", setup.mask_path.c_str());
+  } else {
     Film film(W, H);
     backend->render(mask_frame, film, 0, kLightMaskSpp, a.progress);
     count_nonfinite(nonfinite_mask);
     mask = grow_light_pixels(nolight_mask(film.mean()), W, H);
+    if (nonfinite_mask == 0) write_light_mask(setup.mask_path, mask, W, H);
   }
   size_t light_pixels = std::count(mask.begin(), mask.end(), 0);
 

@@ -7,6 +7,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <string>
 #include <vector>
@@ -293,6 +295,19 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
   ASSERT_GT(lamps, 0u) << "the lamp should be in view";
   ASSERT_LT(lamps, lamp.size() / 2);
   EXPECT_EQ(s["light_pixels"].get<size_t>(), lamps);
+  // ... as the cache keeps it: one binary PGM, 0 on those pixels, 255 elsewhere.
+  std::vector<std::string> masks;
+  for (const auto& e : std::filesystem::directory_iterator(o.cache))
+    if (e.path().filename().string().rfind("mask-", 0) == 0) masks.push_back(e.path().string());
+  ASSERT_EQ(masks.size(), 1u);
+  {
+    std::ifstream f(masks[0], std::ios::binary);
+    const std::string pgm((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    const std::string header = "P5\n" + std::to_string(W) + " " + std::to_string(H) + "\n255\n";
+    ASSERT_EQ(pgm.size(), header.size() + lamp.size());
+    EXPECT_EQ(pgm.substr(0, header.size()), header);
+    for (size_t p = 0; p < lamp.size(); ++p) EXPECT_EQ(uint8_t(pgm[header.size() + p]), lamp[p] ? 0 : 255) << p;
+  }
 
   auto all = [](size_t) { return true; };
   auto nolight = [&](size_t p) { return !lamp[p]; };
@@ -412,6 +427,89 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
     const double frame_eff = 1 / (frame_mse_nolight * ms_per_spp / 1000);
     EXPECT_NEAR(js["frame"]["efficiency_nolight"].get<double>(), frame_eff, 1e-9 * frame_eff);
   }
+  std::filesystem::remove_all(o.cache);
+}
+
+// Why the light mask can be rendered with fixed settings (converge.cpp, light_mask_frame): a render of camera rays
+// alone (max depth 0) is the same image, to the bit, whatever the strategy, MIS mode and light selection, on scenes
+// with sphere lights, many lights, polygon lights (ltc) and an environment.
+TEST(Converge, CameraRaysAloneDoNotDependOnTheTechnique) {
+  for (const char* name : {"cornell-sphere", "many-spheres", "polygon-near", "glossy"}) {
+    SCOPED_TRACE(name);
+    std::vector<std::string> sets = {"render.width=16", "render.height=9", "render.max_depth=0"};
+    if (std::string(name) == "many-spheres") sets.push_back("defaults.lights=300");
+    const Scene scene = load_scene(name, sets);
+    std::string note;
+    auto backend = make_backend("cpu", scene, BackendOptions{2}, &note);
+    auto image = [&](const char* strategy, const char* mis, const char* selection) {
+      FrameSpec f = frame_spec(scene);
+      f.integrator.strategy = parse_strategy(strategy, "test");
+      f.integrator.mis = parse_mis(mis, "test");
+      f.integrator.light_selection = parse_light_selection(selection, "test");
+      Film film(16, 9);
+      backend->render(f, film, 0, 64);
+      return film.mean();
+    };
+    const std::vector<float> fixed = image("area", "none", "power");
+    double sum = 0;
+    for (float v : fixed) sum += v;
+    EXPECT_GT(sum, 0.0) << "no light seen directly";
+    for (const char* strategy : {"area", "solid-angle", "projected-solid-angle", "ltc", "bsdf"})
+      for (const char* mis : {"none", "balance", "power"})
+        for (const char* selection : {"uniform", "power", "bvh", "sg-bvh", "slc", "restir"})
+          EXPECT_EQ(image(strategy, mis, selection), fixed) << strategy << "+" << mis << ", " << selection;
+  }
+}
+
+// The light mask is rendered once for a scene at a size and seed, whatever the techniques, and then read from the
+// cache: the runs measure the same pixel set, and a mask file of another size is rendered again.
+TEST(Converge, LightMaskIsCachedForEveryTechnique) {
+  ConvergeOptions o;
+  o.scene = "cornell-sphere";
+  o.backend = "cpu";
+  o.backend_options.threads = 2;
+  o.width = 20;
+  o.height = 12;
+  o.max_spp = 2;
+  o.seeds = 1;
+  o.reference_spp = 16;
+  o.reference_chunk = 16;
+  o.fit_min_spp = 1;
+  o.strategies = {"area"};
+  o.mis = {"none"};
+  o.verbose = false;
+  o.cache = (std::filesystem::temp_directory_path() / ("penumbra-test-mask-" + std::to_string(::getpid()))).string();
+  std::filesystem::remove_all(o.cache);
+  auto mask_files = [&] {
+    std::vector<std::filesystem::path> out;
+    for (const auto& e : std::filesystem::directory_iterator(o.cache))
+      if (e.path().filename().string().rfind("mask-", 0) == 0) out.push_back(e.path());
+    return out;
+  };
+  const json first = run_converge(o).summary;
+  const auto files = mask_files();
+  ASSERT_EQ(files.size(), 1u);
+  const auto written = std::filesystem::last_write_time(files[0]);
+
+  // Other techniques, MIS, light selection and depth: the same mask, read (the file untouched), the same pixel set.
+  ConvergeOptions other = o;
+  other.strategies = {"projected-solid-angle", "bsdf"};
+  other.mis = {"power"};
+  other.sets = {"render.light_selection=bvh", "render.max_depth=2"};
+  const json second = run_converge(other).summary;
+  ASSERT_EQ(mask_files(), files);
+  EXPECT_EQ(std::filesystem::last_write_time(files[0]), written);
+  EXPECT_EQ(second["light_pixels"], first["light_pixels"]);
+  EXPECT_GT(first["light_pixels"].get<size_t>(), 0u);
+
+  // A file that is not this size's mask (another size's, cut short) is rendered again and replaced.
+  std::filesystem::resize_file(files[0], 10);
+  const json third = run_converge(o).summary;
+  EXPECT_EQ(third["light_pixels"], first["light_pixels"]);
+  const json &a = first["strategies"]["area"]["points"], &b = third["strategies"]["area"]["points"];
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t k = 0; k < a.size(); ++k) EXPECT_EQ(b[k]["rmse_nolight"], a[k]["rmse_nolight"]) << k;
+  EXPECT_GT(std::filesystem::file_size(files[0]), 10u);
   std::filesystem::remove_all(o.cache);
 }
 
