@@ -432,13 +432,20 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
 
 // Why the light mask can be rendered with fixed settings (converge.cpp, light_mask_frame): a render of camera rays
 // alone (max depth 0) is the same image, to the bit, whatever the strategy, MIS mode and light selection, on scenes
-// with sphere lights, many lights, polygon lights (ltc) and an environment.
+// with sphere lights, many lights, polygon lights (ltc) and, where its bunny is on this machine (../shared/scenes or
+// PENUMBRA_SCENES), glossy's sun and sky.
 TEST(Converge, CameraRaysAloneDoNotDependOnTheTechnique) {
   for (const char* name : {"cornell-sphere", "many-spheres", "polygon-near", "glossy"}) {
     SCOPED_TRACE(name);
     std::vector<std::string> sets = {"render.width=16", "render.height=9", "render.max_depth=0"};
     if (std::string(name) == "many-spheres") sets.push_back("defaults.lights=300");
-    const Scene scene = load_scene(name, sets);
+    Scene scene;
+    try {
+      scene = load_scene(name, sets);
+    } catch (const SceneError& e) {
+      if (std::string(name) != "glossy" || std::string(e.what()).find("not found") == std::string::npos) throw;
+      continue;  // its model data is not here: the other scenes stand
+    }
     std::string note;
     auto backend = make_backend("cpu", scene, BackendOptions{2}, &note);
     auto image = [&](const char* strategy, const char* mis, const char* selection) {
