@@ -261,14 +261,14 @@ def converge(args, r):
     if not args.report_only and args.executor == "local":
         if resumed(args, r):
             log(f"study: kept (--resume): {out}")
-        elif args.engine == "python":
-            log(f"study: penumbra.converge({r.scene!r}, out={out!r}, {r.cfg}, overrides={list(r.sets)})")
-            python_converge(args, r, out=out, verbose=True, yes=confirmed(args))
         else:
-            cmd = converge_cmd(args, r) + (["--yes"] if confirmed(args) else [])
-            log("study: " + " ".join(cmd))
-            run_cmd(cmd)
-        if args.ledger:
+            if args.engine == "python":
+                log(f"study: penumbra.converge({r.scene!r}, out={out!r}, {r.cfg}, overrides={list(r.sets)})")
+                python_converge(args, r, out=out, verbose=True, yes=confirmed(args))
+            else:
+                cmd = converge_cmd(args, r) + (["--yes"] if confirmed(args) else [])
+                log("study: " + " ".join(cmd))
+                run_cmd(cmd)
             args.ledger.mark(run_command(args, r), os.path.join(out, "summary.json"))
     return load_summary(out, r.name)
 

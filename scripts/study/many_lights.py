@@ -59,7 +59,7 @@ def many_bench(args, cfg, out_dir):
             else:
                 log("study: " + " ".join(cmd))
                 run_cmd(cmd, stdout=subprocess.DEVNULL)
-            args.ledger.mark(cmd, path)
+                args.ledger.mark(cmd, path)
         if os.path.exists(path):
             with open(path) as f:
                 out.append(dict(lights=n, bench=json.load(f)))

@@ -499,8 +499,7 @@ ConvergeResult run_converge(const ConvergeOptions& a) {
   // of the "no light" metrics (docs/metrics.md).
   // Cached by the scene, size and seed (prepare(), light_mask_frame); one whose render met NaN or infinite
   // samples is not cached, so that every run counts them.
-  const bool mask_cached = !mask.empty();
-  if (mask_cached) {
+  if (!mask.empty()) {
     log("light mask: %s (cached)\n", setup.mask_path.c_str());
   } else {
     Film film(W, H);
