@@ -237,6 +237,14 @@ double relmse_where(const std::vector<float>& a, const std::vector<float>& ref, 
   return rel / double(n);
 }
 
+// The light masks converge keeps in a cache folder (mask-<key>.pgm).
+std::vector<std::filesystem::path> cached_masks(const std::string& cache) {
+  std::vector<std::filesystem::path> out;
+  for (const auto& e : std::filesystem::directory_iterator(cache))
+    if (e.path().filename().string().rfind("mask-", 0) == 0) out.push_back(e.path());
+  return out;
+}
+
 TEST(Converge, SummaryIsItsRendersArithmetic) {
   const std::string scene_name = "cornell-sphere";
   const int W = 24, H = 16, max_spp = 8, seeds = 2;
@@ -296,9 +304,7 @@ TEST(Converge, SummaryIsItsRendersArithmetic) {
   ASSERT_LT(lamps, lamp.size() / 2);
   EXPECT_EQ(s["light_pixels"].get<size_t>(), lamps);
   // ... as the cache keeps it: one binary PGM, 0 on those pixels, 255 elsewhere.
-  std::vector<std::string> masks;
-  for (const auto& e : std::filesystem::directory_iterator(o.cache))
-    if (e.path().filename().string().rfind("mask-", 0) == 0) masks.push_back(e.path().string());
+  const std::vector<std::filesystem::path> masks = cached_masks(o.cache);
   ASSERT_EQ(masks.size(), 1u);
   {
     std::ifstream f(masks[0], std::ios::binary);
@@ -487,14 +493,8 @@ TEST(Converge, LightMaskIsCachedForEveryTechnique) {
   o.verbose = false;
   o.cache = (std::filesystem::temp_directory_path() / ("penumbra-test-mask-" + std::to_string(::getpid()))).string();
   std::filesystem::remove_all(o.cache);
-  auto mask_files = [&] {
-    std::vector<std::filesystem::path> out;
-    for (const auto& e : std::filesystem::directory_iterator(o.cache))
-      if (e.path().filename().string().rfind("mask-", 0) == 0) out.push_back(e.path());
-    return out;
-  };
   const json first = run_converge(o).summary;
-  const auto files = mask_files();
+  const auto files = cached_masks(o.cache);
   ASSERT_EQ(files.size(), 1u);
   const auto written = std::filesystem::last_write_time(files[0]);
 
@@ -504,7 +504,7 @@ TEST(Converge, LightMaskIsCachedForEveryTechnique) {
   other.mis = {"power"};
   other.sets = {"render.light_selection=bvh", "render.max_depth=2"};
   const json second = run_converge(other).summary;
-  ASSERT_EQ(mask_files(), files);
+  ASSERT_EQ(cached_masks(o.cache), files);
   EXPECT_EQ(std::filesystem::last_write_time(files[0]), written);
   EXPECT_EQ(second["light_pixels"], first["light_pixels"]);
   EXPECT_GT(first["light_pixels"].get<size_t>(), 0u);

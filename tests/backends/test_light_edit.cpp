@@ -118,22 +118,18 @@ TEST(LightEdit, TheCpuBackendUpdatedInPlaceRendersAsANewOne) {
 // gpu label runs it on one: tests/gpu).
 TEST(LightEdit, TheGpuBackendUpdatedInPlaceRendersAsANewOne) {
   for (const GpuPath& path : kGpuPaths) {
-    const BackendOptions options = path.options();
     for (const Case& c : kCases) {
       SCOPED_TRACE(std::string(c.scene) + ", " + path.name);
       Scene scene = load_scene(c.scene, small(c.selection));
-      std::string note;
-      std::unique_ptr<Backend> backend;
-      try {
-        backend = make_backend("optix", scene, options, &note);
-      } catch (const std::exception& e) {
-        GTEST_SKIP() << "no GPU backend here: " << e.what();
-      }
+      std::string why;
+      std::unique_ptr<Backend> backend = path.backend(scene, &why);
+      if (!backend) GTEST_SKIP() << "no GPU backend here: " << why;
       const std::vector<float> before = render(*backend, scene, 4);
       set_sphere_light(scene, 0, c.edit.center, c.edit.radius, c.edit.power);
       ASSERT_TRUE(backend->update_lights());
       const std::vector<float> in_place = render(*backend, scene, 4);
-      auto fresh_backend = make_backend("optix", scene, options, &note);
+      const std::unique_ptr<Backend> fresh_backend = path.backend(scene, &why);
+      ASSERT_TRUE(fresh_backend) << why;
       EXPECT_EQ(in_place, render(*fresh_backend, scene, 4));
       EXPECT_NE(in_place, before);
     }

@@ -173,16 +173,12 @@ TEST(MultiBackendGpu, TwoPartsOfOneGpuRenderOneGpusImage) {
     for (const GpuPath& path : kGpuPaths) {
       if (!path.wavefront && !c.megakernel) continue;
       SCOPED_TRACE(std::string(c.scene) + ", " + path.name);
-      const BackendOptions options = path.options();
+      std::string why;
+      std::unique_ptr<Backend> one = path.backend(s, &why);
+      if (!one) GTEST_SKIP() << "no GPU backend here: " << why;
       std::string note;
-      std::unique_ptr<Backend> one;
-      try {
-        one = make_backend("optix", s, options, &note);
-      } catch (const std::exception& e) {
-        GTEST_SKIP() << "no GPU backend here: " << e.what();
-      }
       std::vector<std::unique_ptr<Backend>> parts;
-      for (int i = 0; i < 2; ++i) parts.push_back(make_backend("optix", s, options, &note));
+      for (int i = 0; i < 2; ++i) parts.push_back(make_backend("optix", s, path.options(), &note));
       MultiBackend two(std::move(parts), {"GPU 0 (part 0)", "GPU 0 (part 1)"});
       Film a(W, H), b(W, H);
       one->render(f, a, c.first, c.count);
