@@ -520,5 +520,32 @@ TEST(Converge, LightMaskIsCachedForEveryTechnique) {
   std::filesystem::remove_all(o.cache);
 }
 
+// A mask whose render met NaN or infinite samples (a sky that overflows floats, seen by camera rays) is not
+// cached: every run renders it and counts them.
+TEST(Converge, LightMaskWithNonFiniteSamplesIsNotCached) {
+  ConvergeOptions o;
+  o.scene = std::string(PENUMBRA_TEST_DATA) + "/overflow_env_scene.json";
+  o.backend = "cpu";
+  o.backend_options.threads = 2;
+  o.width = 12;
+  o.height = 8;
+  o.max_spp = 1;
+  o.seeds = 1;
+  o.reference_spp = 4;
+  o.reference_chunk = 4;
+  o.fit_min_spp = 1;
+  o.strategies = {"area"};
+  o.mis = {"none"};
+  o.verbose = false;
+  o.cache = (std::filesystem::temp_directory_path() / ("penumbra-test-mask-nan-" + std::to_string(::getpid()))).string();
+  std::filesystem::remove_all(o.cache);
+  for (int run = 0; run < 2; ++run) {
+    const json s = run_converge(o).summary;
+    EXPECT_GT(s["nonfinite_by_part"]["mask"].get<uint64_t>(), 0u) << "run " << run;
+    EXPECT_TRUE(cached_masks(o.cache).empty()) << "run " << run;
+  }
+  std::filesystem::remove_all(o.cache);
+}
+
 }  // namespace
 }  // namespace pn
