@@ -474,25 +474,34 @@ TEST(Converge, CameraRaysAloneDoNotDependOnTheTechnique) {
   }
 }
 
-// The light mask is rendered once for a scene at a size and seed, whatever the techniques, and then read from the
-// cache: the runs measure the same pixel set, and a mask file of another size is rendered again.
-TEST(Converge, LightMaskIsCachedForEveryTechnique) {
+// A tiny converge on the CPU (area, no MIS, one seed, spp 1..max_spp) of `scene` at W x H, with a cache of its own
+// (emptied) named by `tag`.
+ConvergeOptions tiny_converge(const std::string& scene, int W, int H, int max_spp, int reference_spp,
+                              const std::string& tag) {
   ConvergeOptions o;
-  o.scene = "cornell-sphere";
+  o.scene = scene;
   o.backend = "cpu";
   o.backend_options.threads = 2;
-  o.width = 20;
-  o.height = 12;
-  o.max_spp = 2;
+  o.width = W;
+  o.height = H;
+  o.max_spp = max_spp;
   o.seeds = 1;
-  o.reference_spp = 16;
-  o.reference_chunk = 16;
+  o.reference_spp = reference_spp;
+  o.reference_chunk = reference_spp;
   o.fit_min_spp = 1;
   o.strategies = {"area"};
   o.mis = {"none"};
   o.verbose = false;
-  o.cache = (std::filesystem::temp_directory_path() / ("penumbra-test-mask-" + std::to_string(::getpid()))).string();
+  const std::string folder = "penumbra-test-" + tag + "-" + std::to_string(::getpid());
+  o.cache = (std::filesystem::temp_directory_path() / folder).string();
   std::filesystem::remove_all(o.cache);
+  return o;
+}
+
+// The light mask is rendered once for a scene at a size and seed, whatever the techniques, and then read from the
+// cache: the runs measure the same pixel set, and a mask file of another size is rendered again.
+TEST(Converge, LightMaskIsCachedForEveryTechnique) {
+  const ConvergeOptions o = tiny_converge("cornell-sphere", 20, 12, 2, 16, "mask");
   const json first = run_converge(o).summary;
   const auto files = cached_masks(o.cache);
   ASSERT_EQ(files.size(), 1u);
@@ -523,22 +532,8 @@ TEST(Converge, LightMaskIsCachedForEveryTechnique) {
 // A mask whose render met NaN or infinite samples (a sky that overflows floats, seen by camera rays) is not
 // cached: every run renders it and counts them.
 TEST(Converge, LightMaskWithNonFiniteSamplesIsNotCached) {
-  ConvergeOptions o;
-  o.scene = std::string(PENUMBRA_TEST_DATA) + "/overflow_env_scene.json";
-  o.backend = "cpu";
-  o.backend_options.threads = 2;
-  o.width = 12;
-  o.height = 8;
-  o.max_spp = 1;
-  o.seeds = 1;
-  o.reference_spp = 4;
-  o.reference_chunk = 4;
-  o.fit_min_spp = 1;
-  o.strategies = {"area"};
-  o.mis = {"none"};
-  o.verbose = false;
-  o.cache = (std::filesystem::temp_directory_path() / ("penumbra-test-mask-nan-" + std::to_string(::getpid()))).string();
-  std::filesystem::remove_all(o.cache);
+  const ConvergeOptions o =
+      tiny_converge(std::string(PENUMBRA_TEST_DATA) + "/overflow_env_scene.json", 12, 8, 1, 4, "mask-nan");
   for (int run = 0; run < 2; ++run) {
     const json s = run_converge(o).summary;
     EXPECT_GT(s["nonfinite_by_part"]["mask"].get<uint64_t>(), 0u) << "run " << run;
