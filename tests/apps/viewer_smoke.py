@@ -228,7 +228,12 @@ def case_xvfb(penumbra, work):
     # A 24-bit screen: xvfb-run's default 8-bit one has no OpenGL visual. Mesa's
     # software rasteriser, whatever GPU the machine has.
     env = dict(os.environ, LIBGL_ALWAYS_SOFTWARE="1")
-    X = [xvfb, "-a", "-s", "-screen 0 1280x720x24"]
+    # Our own X authority file: with xvfb-run's own, it removes a temporary
+    # folder on exit, which can race with the X server's last writes and fail a
+    # finished run ("problem while cleaning up temporary directory", exit 5).
+    auth = os.path.join(work, "Xauthority")
+    open(auth, "w").close()
+    X = [xvfb, "-a", "-f", auth, "-s", "-screen 0 1280x720x24"]
     view = X + [penumbra, "view", "--backend", "cpu"] + SIZE
     frames_path_and_split(view, penumbra, env, "window")
 
