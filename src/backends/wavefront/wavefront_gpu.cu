@@ -5,7 +5,9 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -46,6 +48,27 @@ struct WaveParams {
 __constant__ __align__(16) unsigned char g_params[sizeof(WaveParams)];
 
 __device__ __forceinline__ const WaveParams& WP() { return *reinterpret_cast<const WaveParams*>(g_params); }
+
+// g_params is one per device and process, not one per WavefrontGpu. Where several share a device (two backends of
+// one GPU: MultiBackend's parts, or two renderers of one program, each on its own stream), a render call's kernels
+// must read the parameters it wrote, not another's: each render call takes the device's turn (ParamsTurn), in
+// which its stream first waits for the work of the previous holder (an event), then writes g_params and queues
+// its kernels, and records its own event on leaving. The host lock covers only the queuing; a single WavefrontGpu
+// never waits for itself.
+struct DeviceParams {
+  std::mutex mutex;
+  const WavefrontGpu* holder = nullptr;  // whose kernels read g_params last
+  cudaEvent_t done = nullptr;            // recorded after them
+};
+
+DeviceParams& device_params(int device) {
+  // Never destroyed, so that a WavefrontGpu destroyed late in the process's exit still finds them; map nodes stay
+  // put, so references outlive the lock.
+  static auto* mutex = new std::mutex;
+  static auto* devices = new std::map<int, DeviceParams>;
+  std::lock_guard<std::mutex> lock(*mutex);
+  return (*devices)[device];
+}
 
 __device__ __forceinline__ uint32_t stride() { return gridDim.x * blockDim.x; }
 __device__ __forceinline__ uint32_t first_index() { return blockIdx.x * blockDim.x + threadIdx.x; }
@@ -465,9 +488,12 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, const Gpu
     throw std::runtime_error("wavefront: the pool of " + std::to_string(capacity_) + " paths needs " +
                              std::to_string(bytes_ >> 20) + " MiB, the GPU has " + std::to_string(free_bytes >> 20) +
                              " MiB free (--tune wavefront_paths sets a smaller pool)");
+  check(cudaGetDevice(&device_), "cudaGetDevice");
   check(cudaMalloc(&memory_, bytes_), "allocating the path pool");
   if (cudaMalloc(&wave_, sizeof(WaveSpec)) != cudaSuccess ||
-      cudaMalloc(&view_device_, sizeof(WavefrontView)) != cudaSuccess) {
+      cudaMalloc(&view_device_, sizeof(WavefrontView)) != cudaSuccess ||
+      cudaEventCreateWithFlags(reinterpret_cast<cudaEvent_t*>(&params_done_), cudaEventDisableTiming) != cudaSuccess) {
+    cudaFree(view_device_);
     cudaFree(wave_);
     cudaFree(memory_);
     throw std::runtime_error("wavefront: out of GPU memory for the wave's parameters");
@@ -528,6 +554,13 @@ bool WavefrontGpu::update_scene(const Scene& scene, const SceneView& device_scen
 }
 
 WavefrontGpu::~WavefrontGpu() {
+  {
+    DeviceParams& d = device_params(device_);
+    std::lock_guard<std::mutex> lock(d.mutex);
+    if (d.holder == this) d.holder = nullptr, d.done = nullptr;
+  }
+  // A stream that already waits for the event keeps waiting: CUDA frees it once it has completed.
+  if (params_done_) cudaEventDestroy(static_cast<cudaEvent_t>(params_done_));
   drop_graph();
   cudaFree(view_device_);
   cudaFree(wave_);
@@ -606,18 +639,44 @@ void WavefrontGpu::enqueue(uint32_t feature_level, int max_depth, const ShadeKer
   }
 }
 
+// The device's turn at g_params for the life of this object (DeviceParams says why).
+class WavefrontGpu::ParamsTurn {
+ public:
+  ParamsTurn(const WavefrontGpu& w, cudaStream_t stream)
+      : w_(w), stream_(stream), d_(device_params(w.device_)), lock_(d_.mutex) {
+    if (d_.holder && d_.holder != &w_)
+      check(cudaStreamWaitEvent(stream_, d_.done, 0), "waiting for another render's kernels on this GPU");
+  }
+  ~ParamsTurn() {  // also where a launch failed: whatever was queued is ordered before the next holder
+    if (cudaEventRecord(static_cast<cudaEvent_t>(w_.params_done_), stream_) == cudaSuccess) {
+      d_.holder = &w_;
+      d_.done = static_cast<cudaEvent_t>(w_.params_done_);
+    }
+  }
+  ParamsTurn(const ParamsTurn&) = delete;
+  ParamsTurn& operator=(const ParamsTurn&) = delete;
+
+ private:
+  const WavefrontGpu& w_;
+  cudaStream_t stream_;
+  DeviceParams& d_;
+  std::lock_guard<std::mutex> lock_;
+};
+
 bool WavefrontGpu::render(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
                           uint32_t first_sample, uint32_t spp, void* sum, void* sum_sq, const DeviceFilm* film,
                           void* stream) {
+  ParamsTurn turn(*this, static_cast<cudaStream_t>(stream));
   return run(frame, device_scene, feature_level, first_sample, spp, RestirFrame(), sum, sum_sq, film, stream);
 }
 
 void WavefrontGpu::render_restir(const FrameSpec& frame, const SceneView& device_scene, uint32_t feature_level,
                                  uint32_t sample, const RestirFrameBuffers& b, void* sum, void* sum_sq,
                                  void* stream_ptr) {
+  cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
+  ParamsTurn turn(*this, stream);  // the reuse and shading passes read g_params too
   run(frame, device_scene, feature_level, sample, 1, RestirFrame{b.pixels, b.reservoirs[0]}, sum, sum_sq, nullptr,
       stream_ptr);
-  cudaStream_t stream = static_cast<cudaStream_t>(stream_ptr);
   const IntegratorSettings& s = frame.integrator;
   const uint32_t pixels = uint32_t(frame.camera.width) * uint32_t(frame.camera.height);
   const unsigned grid = unsigned(num_sms_) * 8u;

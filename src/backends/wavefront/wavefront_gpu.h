@@ -145,6 +145,7 @@ class WavefrontGpu {
   void record(uint32_t feature_level, int max_depth, const ShadeKernelKey& shade, void* stream);
   void drop_graph();
   void enqueue(uint32_t feature_level, int max_depth, const ShadeKernelKey& shade, void* stream);
+  class ParamsTurn;  // a render call's turn at the device's one copy of the kernels' parameters (wavefront_gpu.cu)
 
   std::unique_ptr<WavefrontTraceStage> trace_;
   uint32_t capacity_ = 0;
@@ -160,6 +161,8 @@ class WavefrontGpu {
   bool graph_allowed_ = true;  // a wave's kernels through a CUDA graph where the stage is capturable (wavefront_graph)
   void* graph_ = nullptr;      // cudaGraph_t
   void* exec_ = nullptr;       // cudaGraphExec_t
+  int device_ = 0;             // the CUDA device this pool lives on
+  void* params_done_ = nullptr;  // cudaEvent_t: recorded after this object's last kernels that read the parameters
   uint32_t graph_level_ = 0;
   int graph_depth_ = -1;
   ShadeKernelKey graph_shade_;
