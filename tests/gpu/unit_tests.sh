@@ -10,6 +10,8 @@ log=$out/unit_tests.log
 "$binary" --gtest_color=no --gtest_filter="$filter" >"$log" 2>&1
 st=$?
 grep -E "^\[ +(OK|FAILED|SKIPPED) +\]" "$log"
+# A failure's assertions (file:line and the values), so that the test's own output says what failed.
+[[ $st == 0 ]] || grep -E -A8 ": Failure$" "$log" | head -n 120
 record "$filter on the GPU" $st
 if grep -q "^\[  SKIPPED \] [A-Za-z]" "$log"; then st=1; else st=0; fi
 record "no case skipped where the GPU is" $st
