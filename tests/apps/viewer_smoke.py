@@ -229,8 +229,8 @@ def case_xvfb(penumbra, work):
     # software rasteriser, whatever GPU the machine has.
     env = dict(os.environ, LIBGL_ALWAYS_SOFTWARE="1")
     # Our own X authority file: with xvfb-run's own, it removes a temporary
-    # folder on exit, which can race with the X server's last writes and fail a
-    # finished run ("problem while cleaning up temporary directory", exit 5).
+    # folder on exit, and that removal once failed a finished run in CI
+    # ("problem while cleaning up temporary directory", exit 5).
     auth = os.path.join(work, "Xauthority")
     open(auth, "w").close()
     X = [xvfb, "-a", "-f", auth, "-s", "-screen 0 1280x720x24"]
