@@ -12,7 +12,6 @@
 #include <vector>
 
 #include "backends/cpu/cpu_backend.h"
-#include "backends/make_backend.h"
 #include "gpu_paths.h"
 #include "render/multi_backend.h"
 #include "scene/scene.h"
@@ -176,9 +175,11 @@ TEST(MultiBackendGpu, TwoPartsOfOneGpuRenderOneGpusImage) {
       std::string why;
       std::unique_ptr<Backend> one = path.backend(s, &why);
       if (!one) GTEST_SKIP() << "no GPU backend here: " << why;
-      std::string note;
       std::vector<std::unique_ptr<Backend>> parts;
-      for (int i = 0; i < 2; ++i) parts.push_back(make_backend("optix", s, path.options(), &note));
+      for (int i = 0; i < 2; ++i) {
+        parts.push_back(path.backend(s, &why));
+        ASSERT_TRUE(parts.back()) << why;
+      }
       MultiBackend two(std::move(parts), {"GPU 0 (part 0)", "GPU 0 (part 1)"});
       Film a(W, H), b(W, H);
       one->render(f, a, c.first, c.count);
