@@ -53,8 +53,9 @@ __device__ __forceinline__ const WaveParams& WP() { return *reinterpret_cast<con
 // one GPU: MultiBackend's parts, or two renderers of one program, each on its own stream), a render call's kernels
 // must read the parameters it wrote, not another's: each render call takes the device's turn (ParamsTurn), in
 // which its stream first waits for the work of the previous holder (an event), then writes g_params and queues
-// its kernels, and records its own event on leaving. The host lock covers only the queuing; a single WavefrontGpu
-// never waits for itself.
+// its kernels, and records its own event on leaving. The host lock is held while queuing, which includes the
+// pageable copy of the parameters (it waits for its own stream, and so for the previous holder's kernels); a single
+// WavefrontGpu never waits for another.
 struct DeviceParams {
   std::mutex mutex;
   const WavefrontGpu* holder = nullptr;  // whose kernels read g_params last
@@ -496,7 +497,7 @@ WavefrontGpu::WavefrontGpu(std::unique_ptr<WavefrontTraceStage> trace, const Gpu
     cudaFree(view_device_);
     cudaFree(wave_);
     cudaFree(memory_);
-    throw std::runtime_error("wavefront: out of GPU memory for the wave's parameters");
+    throw std::runtime_error("wavefront: out of GPU memory for the wave's parameters and their event");
   }
   view_ = carve(static_cast<char*>(memory_), capacity_, &bytes_);
   view_.wave = static_cast<const WaveSpec*>(wave_);
