@@ -243,8 +243,8 @@ def main():
     line = (f"{a.scene} {a.width}x{a.height}, {a.spp} spp x {a.seeds} seeds, max depth {doc['render']['max_depth']}: "
             f"image mean penumbra {mp:.6g} +- {sp:.2g}, Mitsuba {mm:.6g} +- {sm:.2g} (rel. diff {(mp - mm) / mm:+.3%}, "
             f"z {z:+.2f}); 8x8 tiles: mean z^2 {tz2:.2f} (variances from {a.seeds} seeds a renderer: about "
-            f"{expected:.2f} expected), {beyond:.1%} beyond 4{noise_free}; ms per image (wall, the median over seeds, the scene "
-            f"built before): penumbra {pn_med:.1f} ({renderer.device}), "
+            f"{expected:.2f} expected), {beyond:.1%} beyond 4{noise_free}; ms per image (wall, the median over seeds, "
+            f"the scene built before): penumbra {pn_med:.1f} ({renderer.device}), "
             f"Mitsuba {mi_med:.1f} ({a.variant}); ns per sample {pn_med * 1e6 / samples:.1f} vs {mi_med * 1e6 / samples:.1f}")
     print(line)
     if a.out:

@@ -6,7 +6,8 @@ import os
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts", "anchors"))
-from mitsuba_anchor import t_tail  # noqa: E402
+import numpy as np  # noqa: E402
+from mitsuba_anchor import t_tail, tile_stats  # noqa: E402
 
 
 def test_one_degree_of_freedom_is_cauchy():
@@ -30,8 +31,6 @@ def test_three_seeds_allow_more_tiles_than_eight():
 def test_noise_free_tiles_are_counted_apart():
     # Three seeds of 16x16 images (four 8x8 tiles): three tiles with noise, one where every seed gives the same
     # value to float32's rounding (a lamp seen in every sample) and the two renderers differ in its last bits.
-    import numpy as np
-    from mitsuba_anchor import tile_stats
     rng = np.random.default_rng(7)
     pn = rng.normal(1.0, 0.1, (3, 16, 16, 3))
     mi = rng.normal(1.0, 0.1, (3, 16, 16, 3))
@@ -45,8 +44,6 @@ def test_noise_free_tiles_are_counted_apart():
 
 
 def test_a_noise_free_tile_that_differs_is_reported():
-    import numpy as np
-    from mitsuba_anchor import tile_stats
     pn = np.full((3, 8, 8, 3), 10.0)
     mi = np.full((3, 8, 8, 3), 10.05)
     stats = tile_stats(pn, mi)
