@@ -158,8 +158,9 @@ def tile_stats(pn_imgs, mi_imgs, k=8):
     tp = np.stack([tile_means(i, k) for i in pn_imgs])
     tm = np.stack([tile_means(i, k) for i in mi_imgs])
     var = tp.var(axis=0, ddof=1) / len(tp) + tm.var(axis=0, ddof=1) / len(tm)
-    diff = tp.mean(0) - tm.mean(0)
-    scale = np.maximum(np.abs(tp.mean(0)), np.abs(tm.mean(0)))
+    mean_p, mean_m = tp.mean(0), tm.mean(0)
+    diff = mean_p - mean_m
+    scale = np.maximum(np.abs(mean_p), np.abs(mean_m))
     noisy = var > (NOISE_FREE_REL * scale) ** 2
     tz = diff[noisy] / np.sqrt(var[noisy])
     quiet = ~noisy & (scale > 0)
