@@ -89,23 +89,52 @@ def many_report_name(head):
         (f"{'-'.join(head)}.md", f"many_lights_{'-'.join(head)}.json")
 
 
-def many_binaries(head, sweep):
-    """{commit of the binary: the runs it made, by scene and methods}, in the order met: which numbers of a report
-    were measured by which binary."""
+def run_source(r):
+    """(commit of the binary, the device it ran on) of a run's summary or a bench's json."""
+    return r.get("git_commit", "unknown"), r.get("device_info", {}).get("gpu") or r.get("device", "unknown")
+
+
+def many_sources(head, sweep, bench=()):
+    """{(commit of the binary, device): the runs it made, by scene and methods}, in the order met: which numbers of
+    a report were measured by which binary on which device."""
     out = {}
     for scene, runs in head.items():
         by = {}
         for sel, r in runs.items():
-            by.setdefault(r.get("git_commit", "unknown"), []).append(sel)
+            by.setdefault(run_source(r), []).append(sel)
         for c, sels in by.items():
             out.setdefault(c, []).append(f"{scene} ({', '.join(sels)})")
     by = {}
     for sel, runs in sweep.items():
-        for c in dict.fromkeys(r.get("git_commit", "unknown") for r in runs):
+        for c in dict.fromkeys(run_source(r) for r in runs):
             by.setdefault(c, []).append(sel)
     for c, sels in by.items():
         out.setdefault(c, []).append(f"the lights-count sweep ({', '.join(sels)})")
+    by = {}
+    for b in bench:
+        by.setdefault(run_source(b["bench"]), []).append(str(b["lights"]))
+    for c, counts in by.items():
+        out.setdefault(c, []).append(f"`penumbra bench` at {', '.join(counts)} lights")
     return out
+
+
+def sources_line(head, sweep, bench):
+    """The report's line naming the binaries and devices behind its runs (None where one of each made them all),
+    and whether each scene's ratios compare runs of one binary on one device."""
+    sources = many_sources(head, sweep, bench)
+    if len(sources) < 2:
+        return None
+    commits = len({c for c, _ in sources})
+    devices = len({d for _, d in sources})
+    groups = [{run_source(r) for r in runs.values()} for runs in head.values()]
+    groups += [{run_source(r) for runs in sweep.values() for r in runs}] if sweep else []
+    alike = all(len(g) == 1 for g in groups)
+    what = f"{commits} binar{'y' if commits == 1 else 'ies'} on {devices} device{'' if devices == 1 else 's'}"
+    why = ("each scene's runs, and the sweep's, come from one binary on one device, so every ratio compares like "
+           "with like" if alike else "the ratios compare runs of different binaries or devices where a row's "
+           "method and `power` differ")
+    return (f"**The runs come from {what}** (each binary a clean commit; {why}): " +
+            "; ".join(f"`{c}` on {d}: {', '.join(names)}" for (c, d), names in sources.items()) + ".\n")
 
 
 def write_many_report(args, cfg, head, sweep, bench, out_dir):
@@ -117,11 +146,9 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
     w = lines.append
     w("# Many lights: light selection at equal time\n")
     w(generated_by(args, " --part many-lights", env))
-    binaries = many_binaries(head, sweep)
-    if len(binaries) > 1:
-        w("**The runs come from " + str(len(binaries)) + " binaries** (each a clean commit; the ratios compare runs "
-          "of different binaries where a row's method and `power` differ): " +
-          "; ".join(f"`{c}`: {', '.join(names)}" for c, names in binaries.items()) + ".\n")
+    line = sources_line(head, sweep, bench)
+    if line:
+        w(line)
     w("## What was measured\n")
     if not head:
         w("- The lights-count sweep and `penumbra bench` per count (below); time: GPU time (CUDA events) on the GPU, "
@@ -232,15 +259,18 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         w("ms per launch of 1 spp (solid-angle + power; restir with pairwise MIS, as above; slc with a cut of 8); memory: the power CDF (4 bytes a light), the light BVH "
           "(nodes and trails, also uploaded to the GPU), restir's per-pixel buffers at this resolution.\n")
         benched = ["uniform", "power", "bvh", "sg-bvh", "slc", "restir"]
-        w("| lights | " + " | ".join(benched) + " | BVH build ms | BVH MiB | power CDF MiB | restir MiB |")
-        w("| ---: | " + " | ".join("---:" for _ in benched) + " | ---: | ---: | ---: | ---: |")
+        devices = len({run_source(b["bench"])[1] for b in bench}) > 1  # then each row names its device
+        w("| lights | " + " | ".join(benched) + " | BVH build ms | BVH MiB | power CDF MiB | restir MiB |" +
+          (" device |" if devices else ""))
+        w("| ---: | " + " | ".join("---:" for _ in benched) + " | ---: | ---: | ---: | ---: |" +
+          (" --- |" if devices else ""))
         for b in bench:
             j = b["bench"]
             ms = {r["light_selection"].split(" ")[0]: r["ms_per_launch"]["median"] for r in j["results"]}
             sb = j["scene_builds"][0]
             w(f"| {b['lights']} | " + " | ".join(f"{ms.get(s, float('nan')):.3f}" for s in benched) +
               f" | {sb['light_bvh_build_ms']:.2f} | {sb['light_bvh_mib']:.3f} | {4 * (b['lights'] + 1) / 2**20:.3f} | "
-              f"{sb.get('restir_frame_mib', float('nan')):.2f} |")
+              f"{sb.get('restir_frame_mib', float('nan')):.2f} |" + (f" {run_source(j)[1]} |" if devices else ""))
         w("")
     if os.path.exists(os.path.join(out_dir, "DISCUSSION.md")):
         w("## Discussion\n")
