@@ -94,6 +94,16 @@ def run_source(r):
     return r.get("git_commit", "unknown"), r.get("device_info", {}).get("gpu") or r.get("device", "unknown")
 
 
+def run_settings(r):
+    """The size, ground truth and largest spp of a run's summary, to hold against its preset's."""
+    return dict(width=r["width"], height=r["height"], reference_spp=r["reference"]["spp"],
+                max_spp=max(p["spp"] for st in r["strategies"].values() for p in st["points"]))
+
+
+def preset_settings(h):
+    return dict(width=h["width"], height=h["height"], reference_spp=h["reference_spp"], max_spp=h["max_spp"])
+
+
 def many_sources(head, sweep, bench=()):
     """{(commit of the binary, device): the runs it made, by scene and methods}, in the order met: which numbers of
     a report were measured by which binary on which device."""
@@ -165,10 +175,13 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         if "many-spheres-glossy" in head:
             counts.append("many-spheres-glossy: many-spheres with its glossy half a metal of roughness 0.15 "
                           "(materials.glossy.metallic=1), where a lobe sees few lamps")
+        own = [scene for scene, runs in head.items() if run_settings(runs["power"]) != preset_settings(h)]
         w(f"- Scenes: {', '.join(head)} ({'; '.join(counts)}) at {h['width']}x{h['height']}, max depth "
           f"8 unless said otherwise, MIS power; ground truth {h['reference_spp']} spp selected by "
           f"{h.get('reference_selection', 'power')} (solid-angle); renders at 1, 2, ..., "
-          f"{h['max_spp']} spp, {h['seeds']} seeds.")
+          f"{h['max_spp']} spp, {h['seeds']} seeds" +
+          (f"; **{' and '.join(own)} ran at other settings**, which {'its' if len(own) == 1 else 'their'} section "
+           "names" if own else "") + ".")
         restir_env = next(iter(head.values())).get("restir", {})
         w("- Selection methods: " + ", ".join(f"`{s}`" for s in MANY_SELECTIONS) + ". `restir`: " +
           restir_env.get("light_selection", "?") + "; see the runs' summary.json for each method's settings. "
@@ -188,6 +201,12 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         share = f" ({100 * lp / (runs['power']['width'] * runs['power']['height']):.1f}% of the image)" \
             if isinstance(lp, (int, float)) else ""
         w(f"No-light pixels; the last column counts every pixel, the lamps' own{share} too.\n")
+        got = run_settings(runs["power"])
+        if got != preset_settings(h):
+            commit, device = run_source(runs["power"])
+            w(f"**Not the {args.preset} preset's settings:** these runs are at {got['width']}x{got['height']}, "
+              f"ground truth {got['reference_spp']} spp, renders up to {got['max_spp']} spp, on {device} "
+              f"(binary `{commit}`).\n")
         wall = wall_times(runs.values())  # GPU runs that also timed each render call: wall time beside GPU time
         w("| selection | " + " | ".join(f"`{st}`" for st in MANY_STRATEGIES) +
           " | relMSE-efficiency (solid-angle) | ms/spp (solid-angle) |" +

@@ -44,3 +44,21 @@ def test_a_sweep_across_devices_is_not_called_alike():
     line = many_lights.sources_line(head, sweep, [])
     assert "compare runs of different binaries or devices" in line
     assert "`aaa` on H100: the lights-count sweep (power)" in line
+
+
+def summary(width, height, reference_spp, spps):
+    """A converge summary's fields that say at which settings it ran."""
+    return dict(width=width, height=height, reference=dict(spp=reference_spp),
+                strategies={"solid-angle+power": dict(points=[dict(spp=n) for n in spps]),
+                            "area+power": dict(points=[dict(spp=n) for n in spps[:-1]])})
+
+
+def test_a_run_at_another_presets_settings_is_told_apart():
+    gpu = dict(width=1920, height=1080, reference_spp=16384, max_spp=128, seeds=2)
+    same = summary(1920, 1080, 16384, [1, 2, 4, 128])
+    assert many_lights.run_settings(same) == many_lights.preset_settings(gpu)
+    cpu = summary(96, 54, 2048, [1, 2, 64])
+    assert many_lights.run_settings(cpu) == dict(width=96, height=54, reference_spp=2048, max_spp=64)
+    assert many_lights.run_settings(cpu) != many_lights.preset_settings(gpu)
+    fewer = summary(1920, 1080, 16384, [1, 2, 64])  # a run stopped short of the preset's largest spp
+    assert many_lights.run_settings(fewer) != many_lights.preset_settings(gpu)
