@@ -159,6 +159,8 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
     line = sources_line(head, sweep, bench)
     if line:
         w(line)
+    # The scenes whose runs were not made at the preset's settings (another preset's, kept in the same folder).
+    own = [scene for scene, runs in head.items() if run_settings(runs["power"]) != preset_settings(h)]
     w("## What was measured\n")
     if not head:
         w("- The lights-count sweep and `penumbra bench` per count (below); time: GPU time (CUDA events) on the GPU, "
@@ -175,7 +177,6 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         if "many-spheres-glossy" in head:
             counts.append("many-spheres-glossy: many-spheres with its glossy half a metal of roughness 0.15 "
                           "(materials.glossy.metallic=1), where a lobe sees few lamps")
-        own = [scene for scene, runs in head.items() if run_settings(runs["power"]) != preset_settings(h)]
         w(f"- Scenes: {', '.join(head)} ({'; '.join(counts)}) at {h['width']}x{h['height']}, max depth "
           f"8 unless said otherwise, MIS power; ground truth {h['reference_spp']} spp selected by "
           f"{h.get('reference_selection', 'power')} (solid-angle); renders at 1, 2, ..., "
@@ -201,8 +202,8 @@ def write_many_report(args, cfg, head, sweep, bench, out_dir):
         share = f" ({100 * lp / (runs['power']['width'] * runs['power']['height']):.1f}% of the image)" \
             if isinstance(lp, (int, float)) else ""
         w(f"No-light pixels; the last column counts every pixel, the lamps' own{share} too.\n")
-        got = run_settings(runs["power"])
-        if got != preset_settings(h):
+        if scene in own:
+            got = run_settings(runs["power"])
             commit, device = run_source(runs["power"])
             w(f"**Not the {args.preset} preset's settings:** these runs are at {got['width']}x{got['height']}, "
               f"ground truth {got['reference_spp']} spp, renders up to {got['max_spp']} spp, on {device} "
